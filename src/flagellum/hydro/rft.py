@@ -1,0 +1,193 @@
+"""Resistive-force theory (RFT) of a rigid helix (paper App. A, §3.3, App. C).
+
+Sign convention of the paper (eq. A.1): the force and torque *applied to* a rigid body
+moving with velocity v and angular velocity ω are ::
+
+    (F, M) = [[A, C], [Cᵀ, B]] (v, ω),
+
+with local force density f = (γ∥ t⊗t + γ⊥(1 − t⊗t))(v + ω×r) and torque density r×f
+(+ γR (t·ω) t if spin friction is included). For a right-handed helix along +z, C∥ < 0.
+The *thrust* is the paper's F of §3: the force the filament exerts on its anchor along
+the motor axis, positive when it pushes (anchored helix: F/M = −C∥/B∥).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..helix import DiscreteHelix, Helix
+
+
+def full_turn_coefficients(helix: Helix, gamma_par: float, gamma_perp: float) -> dict:
+    """Friction coefficients of eq. (A.5) for a helix of contour length ``helix.length``.
+
+    Exact for whole turns; A∥ holds for any length. ``C_par`` carries the handedness::
+
+        A⊥ = Lγ⊥(1 + δ cos²α/2),  A∥ = Lγ⊥(1 + δ sin²α),
+        B∥ = Lγ⊥R²(1 + δ(1 − sin²α)),  C∥ = χ Lγ⊥ R δ sin α cos α,   δ = (γ∥ − γ⊥)/γ⊥.
+    """
+    L, R, a = helix.length, helix.radius, helix.pitch_angle
+    d = (gamma_par - gamma_perp) / gamma_perp
+    sa, ca = math.sin(a), math.cos(a)
+    return {
+        "A_perp": L * gamma_perp * (1 + d * ca**2 / 2),
+        "A_par": L * gamma_perp * (1 + d * sa**2),
+        "B_par": L * gamma_perp * R**2 * (1 + d * (1 - sa**2)),
+        "C_par": helix.chirality * L * gamma_perp * R * d * sa * ca,
+    }
+
+
+def _skew(r: np.ndarray) -> np.ndarray:
+    """Stack of cross-product matrices [r]× with [r]× w = r × w."""
+    z = np.zeros(r.shape[:-1])
+    return np.stack([np.stack([z, -r[..., 2], r[..., 1]], -1),
+                     np.stack([r[..., 2], z, -r[..., 0]], -1),
+                     np.stack([-r[..., 1], r[..., 0], z], -1)], -2)
+
+
+def resistance_matrix(points, tangents, weights, gamma_par, gamma_perp, gamma_rot=0.0,
+                      origin=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """6×6 resistance matrix [[A, C], [Cᵀ, B]] by quadrature over nodes (eq. A.1–A.3).
+
+    ``points`` (n, 3), unit ``tangents`` (n, 3), ``weights`` (n,) are quadrature nodes along
+    the filament (lengths for lumped beads). Torques are about ``origin``. ``gamma_rot``
+    adds spin friction γR (t·ω) t per length (omitted in the paper's eq. A.5).
+    """
+    r = np.asarray(points, float) - np.asarray(origin, float)
+    t = np.asarray(tangents, float)
+    w = np.asarray(weights, float)
+    tt = t[:, :, None] * t[:, None, :]
+    gam = w[:, None, None] * (gamma_par * tt + gamma_perp * (np.eye(3) - tt))
+    rx = _skew(r)
+    A = gam.sum(0)
+    C = -(gam @ rx).sum(0)
+    B = -(rx @ gam @ rx).sum(0) + gamma_rot * (w[:, None, None] * tt).sum(0)
+    return np.block([[A, C], [C.T, B]])
+
+
+def helix_nodes(helix: Helix, nodes_per_turn: int = 64):
+    """Gauss–Legendre nodes along the continuum helix (spectrally accurate quadrature)."""
+    n_int = max(1, int(math.ceil(helix.n_turns * 4)))
+    x, wq = np.polynomial.legendre.leggauss(max(4, nodes_per_turn // 4))
+    edges = np.linspace(0, helix.length, n_int + 1)
+    mid, half = (edges[1:] + edges[:-1]) / 2, (edges[1:] - edges[:-1]) / 2
+    s = (mid[:, None] + half[:, None] * x[None, :]).ravel()
+    w = (half[:, None] * wq[None, :]).ravel()
+    return helix.positions(s), helix.tangents(s), w
+
+
+def bead_nodes(dh: DiscreteHelix):
+    """The simulator's lumped drag nodes: beads with averaged tangents (paper §2.2).
+
+    Bead i (1 ≤ i < N) carries length h with t = (e3⁽ⁱ⁾ + e3⁽ⁱ⁺¹⁾)/|…|; the end beads
+    carry h/2 and the tangent of their one bond.
+    """
+    e3 = dh.tangents
+    n = len(e3)
+    t = np.empty((n + 1, 3))
+    t[0], t[n] = e3[0], e3[-1]
+    mid = e3[:-1] + e3[1:]
+    t[1:n] = mid / np.linalg.norm(mid, axis=1)[:, None]
+    w = np.full(n + 1, dh.segment_length)
+    w[0] = w[n] = dh.segment_length / 2
+    return dh.positions, t, w
+
+
+def anchored_helix(coeffs: dict) -> dict:
+    """Rigid helix rotating about its own axis, held in place (§3.1): v = 0.
+
+    ω/M = 1/B∥, thrust F/M = −C∥/B∥ (force on the anchor, > 0 when pushing).
+    """
+    return {"thrust_per_torque": -coeffs["C_par"] / coeffs["B_par"],
+            "omega_per_torque": 1.0 / coeffs["B_par"]}
+
+
+def load_sphere(coeffs: dict, torque: float, sphere_radius: float, viscosity: float) -> dict:
+    """Rigid helix pushing a sphere of radius a (drag ζ = 6πηa) along its axis (§3.3).
+
+    Solves (A∥ + ζ) v + C∥ ω = 0, M = C∥ v + B∥ ω; thrust F = ζ v on the sphere.
+    """
+    A, B, C = coeffs["A_par"], coeffs["B_par"], coeffs["C_par"]
+    zeta = 6 * math.pi * viscosity * sphere_radius
+    omega = torque / (B - C * C / (A + zeta))
+    v = -C * omega / (A + zeta)
+    return {"omega": omega, "velocity": v, "thrust": zeta * v}
+
+
+def critical_torque_line(coeffs: dict, critical_force: float, viscosity: float) -> dict:
+    """Eq. (25): M_c1 = −(B∥/C∥) F_c1 + (C∥ − A∥B∥/C∥) F_c1/(6πη) · (1/a).
+
+    Returns ``intercept`` [pN·µm] and ``slope_per_inverse_radius`` [pN·µm²].
+    """
+    A, B, C = coeffs["A_par"], coeffs["B_par"], coeffs["C_par"]
+    return {"intercept": -B / C * critical_force,
+            "slope_per_inverse_radius": (C - A * B / C) * critical_force / (6 * math.pi * viscosity)}
+
+
+def effective_bending_rigidity(helix: Helix, bend_rigidity: float, twist_rigidity: float) -> float:
+    """App. C, eq. (C.4): 1/A_eff = (1 + sin²α + (A/C) cos²α) / (2 A sin α)."""
+    a = helix.pitch_angle
+    A, C = bend_rigidity, twist_rigidity
+    return 2 * A * math.sin(a) / (1 + math.sin(a) ** 2 + A / C * math.cos(a) ** 2)
+
+
+@dataclass(frozen=True)
+class PinnedRotation:
+    """Steady rotation of a rigid helix pinned at a point under a torque M along the motor axis.
+
+    A rigid body whose pivot is fixed rotates steadily under a constant lab torque only when
+    the torque lies along an eigenvector of its rotational resistance matrix about the pivot;
+    the least-resistance eigen-axis (tilted slightly from the helix axis) is the one reached.
+    """
+
+    thrust_per_torque: float
+    omega_per_torque: float
+    axis_tilt_deg: float
+    axis: np.ndarray  #: unit eigen-axis in the helix' coordinates, pointing from the pivot along the helix
+
+
+def pinned_rotation(matrix: np.ndarray, helix_axis) -> PinnedRotation:
+    """Thrust and rotation rate per torque of a helix pinned at the matrix' origin.
+
+    ``matrix`` is the 6×6 resistance matrix about the pivot, ``helix_axis`` the direction
+    from the pivot into the filament. The motor axis is m = −e (the filament trails behind
+    the motor), ω = (M/b) m, and the thrust on the pivot along m is F = −mᵀC m M/b.
+    """
+    B, C = matrix[3:, 3:], matrix[:3, 3:]
+    vals, vecs = np.linalg.eigh(B)
+    e = vecs[:, 0]
+    axis = np.asarray(helix_axis, float) / np.linalg.norm(helix_axis)
+    if e @ axis < 0:
+        e = -e
+    m = -e
+    b = vals[0]
+    tilt = math.degrees(math.acos(min(1.0, abs(float(e @ axis)))))
+    return PinnedRotation(-(m @ C @ m) / b, 1.0 / b, tilt, e)
+
+
+def rft_summary(params, critical_force: float = 1.0) -> dict:
+    """All RFT numbers of the foundation (used by ``flagellum rft``)."""
+    from ..params import lighthill_friction
+
+    fil, fluid = params.filament, params.fluid
+    helix = Helix.from_filament(fil)
+    gp, gn, gr = params.gammas
+    coeffs = full_turn_coefficients(helix, gp, gn)
+    lh = lighthill_friction(fil, fluid) if fil.kappa0 > 0 else (math.nan,) * 3
+    pts, tan, w = helix_nodes(helix)
+    pinned = pinned_rotation(resistance_matrix(pts - pts[0], tan, w, gp, gn, gr),
+                             helix_axis=(0.0, 0.0, 1.0))
+    out = {**helix.summary(), "length": helix.length,
+           "gamma_par": gp, "gamma_perp": gn, "gamma_rot": gr,
+           "lighthill": {"gamma_par": lh[0], "gamma_perp": lh[1], "gamma_rot": lh[2]},
+           **coeffs, **anchored_helix(coeffs),
+           "A_eff": effective_bending_rigidity(helix, fil.bend_rigidity, fil.twist_rigidity),
+           "pinned": {"thrust_per_torque": pinned.thrust_per_torque,
+                      "omega_per_torque": pinned.omega_per_torque,
+                      "axis_tilt_deg": pinned.axis_tilt_deg},
+           "critical_torque_line": {"critical_force": critical_force,
+                                    **critical_torque_line(coeffs, critical_force, fluid.viscosity)}}
+    return out

@@ -1,0 +1,301 @@
+"""Model parameters as immutable, validated dataclasses.
+
+Units everywhere: µm, pN, s (so energies in pN·µm, viscosity in pN·s/µm²).
+
+Three groups, as in Vogel & Stark (2012) §2.4:
+
+* :class:`Filament` — geometry and elasticity of the helical filament (eqs. 3–4),
+* :class:`Fluid` — viscosity, filament radius and thermal energy,
+* :class:`Friction` — local resistive-force coefficients γ∥, γ⊥, γR (eq. 5); either the
+  paper's rounded values, Lighthill's formulas (App. A), or user-given values.
+
+:class:`Params` bundles them and reads/writes TOML with the same names as the CLI flags.
+"""
+
+from __future__ import annotations
+
+import math
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
+from dataclasses import asdict, dataclass, field, fields
+from numbers import Real
+from pathlib import Path
+from typing import Any
+
+from .errors import ParameterError
+
+#: The paper's rounded friction coefficients (§2.4): γ∥, γ⊥ in pN·s/µm², γR in pN·s.
+PAPER_FRICTION = (1.6e-3, 2.8e-3, 1.26e-6)
+
+
+def check_real(name: str, value: Any, allowed: str = "a finite number") -> float:
+    """Return ``value`` as float, or raise :class:`ParameterError` if it is not a finite real."""
+    if isinstance(value, bool) or not isinstance(value, Real):
+        raise ParameterError(name, value, allowed)
+    value = float(value)
+    if not math.isfinite(value):
+        raise ParameterError(name, value, allowed)
+    return value
+
+
+def check_range(name: str, value: Any, lo: float = -math.inf, hi: float = math.inf,
+                lo_open: bool = True, hi_open: bool = False) -> float:
+    """Validate a finite real in the interval (lo, hi] (openness configurable)."""
+    lb = "(" if lo_open else "["
+    rb = ")" if hi_open or hi == math.inf else "]"
+    allowed = f"a finite number in {lb}{lo:g}, {hi:g}{rb}"
+    v = check_real(name, value, allowed)
+    if (v <= lo if lo_open else v < lo) or (v >= hi if hi_open else v > hi):
+        raise ParameterError(name, value, allowed)
+    return v
+
+
+def check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
+    if not isinstance(value, str) or value not in choices:
+        raise ParameterError(name, value, "one of " + ", ".join(repr(c) for c in choices))
+    return value
+
+
+def positive(name: str, value: Any, hi: float = math.inf) -> float:
+    return check_range(name, value, 0.0, hi)
+
+
+def _set(obj, name, value):
+    object.__setattr__(obj, name, value)
+
+
+@dataclass(frozen=True)
+class Filament:
+    """Helical filament: discrete Kirchhoff rod of ``n_segments`` bonds of length h.
+
+    Energy density (paper eqs. 3–4)::
+
+        f = A/2 Ω1² + A/2 (Ω2 − κ0)² + C/2 (Ω3 − τ0)² + K/2 (|∂s r| − 1)²
+
+    ``tau0`` is the magnitude of the torsion; ``handedness`` gives its sign
+    (right-handed: τ > 0).
+    """
+
+    kappa0: float = 1.3  #: spontaneous curvature κ0 [1/µm]
+    tau0: float = 2.1  #: spontaneous torsion |τ0| [1/µm]
+    handedness: str = "right"
+    bend_rigidity: float = 3.5  #: A [pN·µm²]
+    twist_rigidity: float = 3.5  #: C [pN·µm²]
+    stretch_modulus: float = 1.0e3  #: K [pN]; strain = tension/K
+    length: float = 10.0  #: contour length L [µm]
+    segment_length: float = 0.2  #: bond length h [µm]
+
+    def __post_init__(self):
+        _set(self, "kappa0", check_range("kappa0", self.kappa0, 0.0, 1e3, lo_open=False))
+        _set(self, "tau0", check_range("tau0", self.tau0, 0.0, 1e3, lo_open=False))
+        check_choice("handedness", self.handedness, ("right", "left"))
+        _set(self, "bend_rigidity", positive("bend_rigidity", self.bend_rigidity, 1e6))
+        _set(self, "twist_rigidity", positive("twist_rigidity", self.twist_rigidity, 1e6))
+        _set(self, "stretch_modulus", positive("stretch_modulus", self.stretch_modulus, 1e9))
+        _set(self, "length", positive("length", self.length, 1e4))
+        h = positive("segment_length", self.segment_length, self.length / 3)
+        n = self.length / h
+        if abs(n - round(n)) > 1e-6 * n or round(n) < 3:
+            raise ParameterError("segment_length", self.segment_length,
+                                 f"a divisor of length={self.length:g} giving at least 3 segments")
+        if round(n) > 100000:
+            raise ParameterError("segment_length", self.segment_length,
+                                 f"at least length/100000 = {self.length / 1e5:g}")
+        _set(self, "segment_length", h)
+        if self.kappa0 == 0 and self.tau0 == 0:
+            pass  # straight rod is allowed
+        if self.kappa0 * h > 1.0:
+            raise ParameterError("segment_length", h,
+                                 f"at most 1/kappa0 = {1 / self.kappa0:g} (bend angle per bond ≤ 1 rad)")
+
+    @property
+    def n_segments(self) -> int:
+        """Number of bonds N = L/h (N+1 beads)."""
+        return int(round(self.length / self.segment_length))
+
+    @property
+    def torsion(self) -> float:
+        """Signed spontaneous torsion: +τ0 right-handed, −τ0 left-handed."""
+        return self.tau0 if self.handedness == "right" else -self.tau0
+
+    @property
+    def chirality(self) -> int:
+        return 1 if self.handedness == "right" else -1
+
+
+@dataclass(frozen=True)
+class Fluid:
+    """Surrounding fluid and thermal bath."""
+
+    viscosity: float = 1.0e-3  #: η [pN·s/µm²] (water)
+    filament_radius: float = 0.01  #: r [µm]
+    kT: float = 4.1e-3  #: thermal energy [pN·µm]; 0 switches noise off
+
+    def __post_init__(self):
+        _set(self, "viscosity", positive("viscosity", self.viscosity, 1e6))
+        _set(self, "filament_radius", positive("filament_radius", self.filament_radius, 10.0))
+        _set(self, "kT", check_range("kT", self.kT, 0.0, 10.0, lo_open=False))
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Local friction coefficients of resistive-force theory (paper eq. 5, App. A).
+
+    ``model``:
+      * ``"paper"`` — γ∥ = 1.6e-3, γ⊥ = 2.8e-3 pN·s/µm², γR = 1.26e-6 pN·s (default),
+      * ``"lighthill"`` — Lighthill's formulas from η, r and the helix (App. A)::
+
+            γ∥ = 2πη / ln(2q/r),   γ⊥ = 4πη / (ln(2q/r) + 1/2),   q = 0.09 Λ,
+            Λ = 2πR / cos α,       γR = 4πη r²  (rotation of a cylinder about its axis)
+
+      * ``"custom"`` — ``gamma_par``, ``gamma_perp``, ``gamma_rot`` as given.
+    """
+
+    model: str = "paper"
+    gamma_par: float | None = None
+    gamma_perp: float | None = None
+    gamma_rot: float | None = None
+
+    def __post_init__(self):
+        check_choice("friction", self.model, ("paper", "lighthill", "custom"))
+        for name in ("gamma_par", "gamma_perp", "gamma_rot"):
+            v = getattr(self, name)
+            if v is not None:
+                _set(self, name, positive(name, v, 1e6))
+            elif self.model == "custom":
+                raise ParameterError(name, v, "given (a number > 0) when friction = 'custom'")
+
+    def resolve(self, filament: Filament, fluid: Fluid) -> tuple[float, float, float]:
+        """The (γ∥, γ⊥, γR) in use."""
+        if self.model == "paper":
+            base = PAPER_FRICTION
+        elif self.model == "lighthill":
+            base = lighthill_friction(filament, fluid)
+        else:
+            base = (self.gamma_par, self.gamma_perp, self.gamma_rot)
+        given = (self.gamma_par, self.gamma_perp, self.gamma_rot)
+        return tuple(float(g if g is not None else b) for g, b in zip(given, base))
+
+
+def lighthill_friction(filament: Filament, fluid: Fluid) -> tuple[float, float, float]:
+    """Lighthill's local friction coefficients (paper App. A) for the filament's helix."""
+    k2 = filament.kappa0**2 + filament.tau0**2
+    if filament.kappa0 == 0:
+        raise ParameterError("kappa0", 0.0, "> 0 for Lighthill friction (needs a helix)")
+    radius = filament.kappa0 / k2
+    cos_alpha = filament.kappa0 / math.sqrt(k2)
+    q = 0.09 * 2 * math.pi * radius / cos_alpha
+    log = math.log(2 * q / fluid.filament_radius)
+    if log <= 0:
+        raise ParameterError("filament_radius", fluid.filament_radius,
+                             f"smaller than 2q = {2 * q:g} µm for Lighthill friction")
+    eta = fluid.viscosity
+    return (2 * math.pi * eta / log, 4 * math.pi * eta / (log + 0.5),
+            4 * math.pi * eta * fluid.filament_radius**2)
+
+
+_SECTIONS = {"filament": Filament, "fluid": Fluid, "friction": Friction}
+
+
+@dataclass(frozen=True)
+class Params:
+    """All physical parameters of a filament in a fluid."""
+
+    filament: Filament = field(default_factory=Filament)
+    fluid: Fluid = field(default_factory=Fluid)
+    friction: Friction = field(default_factory=Friction)
+
+    @property
+    def gammas(self) -> tuple[float, float, float]:
+        """(γ∥, γ⊥, γR) in use."""
+        return self.friction.resolve(self.filament, self.fluid)
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["friction"] = {k: v for k, v in d["friction"].items() if v is not None}
+        return d
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Params":
+        """Build from nested ``{"filament": {...}, "fluid": {...}, "friction": {...}}``."""
+        if not isinstance(data, dict):
+            raise ParameterError("config", type(data).__name__, "a table of sections")
+        unknown = set(data) - set(_SECTIONS)
+        if unknown:
+            raise ParameterError("config section", sorted(unknown)[0],
+                                 "one of " + ", ".join(_SECTIONS))
+        parts = {}
+        for sec, klass in _SECTIONS.items():
+            values = data.get(sec, {})
+            if not isinstance(values, dict):
+                raise ParameterError(sec, values, "a table")
+            values = dict(values)
+            if sec == "friction" and "friction" in values:
+                values["model"] = values.pop("friction")
+            names = {f.name for f in fields(klass)}
+            bad = set(values) - names
+            if bad:
+                raise ParameterError(f"{sec}.{sorted(bad)[0]}", values[sorted(bad)[0]],
+                                     "a known key: " + ", ".join(sorted(names)))
+            parts[sec] = klass(**values)
+        return cls(**parts)
+
+    @classmethod
+    def from_flat(cls, values: dict, base: "Params | None" = None) -> "Params":
+        """Override ``base`` with flat names as used by the CLI (``None`` values ignored)."""
+        base = base or cls()
+        nested = base.to_dict()
+        for key, v in values.items():
+            if v is None:
+                continue
+            for sec, klass in _SECTIONS.items():
+                names = {f.name for f in fields(klass)}
+                if key in names:
+                    nested[sec][key] = v
+                    break
+                if sec == "friction" and key == "friction":
+                    nested[sec]["model"] = v
+                    break
+            else:
+                raise ParameterError("parameter", key, "a known parameter name")
+        return cls.from_dict(nested)
+
+    def replace(self, **flat) -> "Params":
+        """Copy with flat-named parameters replaced, e.g. ``p.replace(length=5.0)``."""
+        return Params.from_flat(flat, base=self)
+
+    def to_toml(self) -> str:
+        lines = []
+        for sec, values in self.to_dict().items():
+            lines.append(f"[{sec}]")
+            for k, v in values.items():
+                lines.append(f"{k} = {v!r}" if not isinstance(v, str) else f'{k} = "{v}"')
+            lines.append("")
+        return "\n".join(lines)
+
+    def save_toml(self, path: str | Path) -> None:
+        from .io import atomic_write_text
+
+        atomic_write_text(path, self.to_toml())
+
+    @classmethod
+    def load_toml(cls, path: str | Path) -> "Params":
+        return cls.from_dict(read_toml(path))
+
+
+def read_toml(path: str | Path) -> dict:
+    """Read a TOML file, turning every failure into a one-line :class:`ParameterError`."""
+    try:
+        text = Path(path).read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ParameterError("config", str(path), f"a readable TOML file ({exc.__class__.__name__})")
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ParameterError("config", str(path), f"valid TOML ({exc})")
+
+
+__all__ = ["Filament", "Fluid", "Friction", "Params", "PAPER_FRICTION", "lighthill_friction",
+           "check_real", "check_range", "check_choice", "positive", "read_toml"]

@@ -1,0 +1,237 @@
+"""Numba kernels of the discrete Kirchhoff rod (paper §2.1–2.3).
+
+State layout (bead by bead, so that the Jacobian is banded)::
+
+    y = [u0x, u0y, u0z,  x0, y0, z0, θ0,  x1, y1, z1, θ1,  …,  xN, yN, zN, θN]
+
+``u0`` is the (unnormalized) tangent of the hook frame 0, ``θ0`` its material angle;
+``r_i`` are the beads, ``θ_i`` (i ≥ 1) the material angle of bond i (bead i−1 → bead i).
+
+Material frames. Frame i has tangent t_i (t_0 = u0/|u0|, t_i = (r_i − r_{i−1})/|…|) and a
+reference vector a1 = P(u_i → t_i) e_i obtained by parallel transport from a chart pole u_i
+(a lab-fixed unit vector, e_i ⟂ u_i); e1 = cos θ a1 + sin θ a2, e2 = t × e1. A chart is
+singular only at t = −u_i; the simulator moves the pole before it gets there (θ unchanged).
+When t moves, a1 spins about t at the rate s·ṫ with s = −(u × t)/(1 + u·t).
+
+Strains between frames a = j and b = j+1 follow the paper's construction (twist about e3,
+then bend about e3⁽ʲ⁾ × e3⁽ʲ⁺¹⁾): with c = t_a × t_b and φ the bend angle, ::
+
+    h Ω1 = φ/sin φ · c·e1_b,   h Ω2 = φ/sin φ · c·e2_b,   h Ω3 = ψ = ∠(P_ab e1_a, e1_b),
+
+and E_j = h/2 [A Ω1² + A (Ω2 − κ0)² + C (Ω3 − τ0)²]; stretching K h/2 (|r_i − r_{i−1}|/h − 1)².
+
+Gradients are taken with the material frames *transported* in the variation (the
+gauge-invariant derivative): δe1 = δΘ e2 − (e1·δt) t with material spin δΘ = δθ + s·δt.
+This gives G_t (∂E/∂t at fixed material spin) and G_Θ = ∂E/∂θ; the physical force on the
+beads follows from G_t alone, so it does not depend on the choice of reference frames.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+HOOK_FREE, HOOK_ELASTIC, HOOK_CLAMPED = 0, 1, 2
+ANCHOR_FIXED, ANCHOR_SPHERE, ANCHOR_FREE = 0, 1, 2
+
+
+@njit(cache=True, inline="always")
+def _cross(a0, a1, a2, b0, b1, b2):
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@njit(cache=True)
+def frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S):
+    """Fill tangents T, material vectors E1, E2, bond lengths LEN and spin connections S.
+
+    Arrays have shape (n+1, 3) (LEN: n+1); row 0 is the hook frame (LEN[0] = |u0|).
+    """
+    for i in range(n + 1):
+        if i == 0:
+            dx, dy, dz = y[0], y[1], y[2]
+        else:
+            o, p = 3 + 4 * i, 3 + 4 * (i - 1)
+            dx, dy, dz = y[o] - y[p], y[o + 1] - y[p + 1], y[o + 2] - y[p + 2]
+        ln = math.sqrt(dx * dx + dy * dy + dz * dz)
+        LEN[i] = ln
+        tx, ty, tz = dx / ln, dy / ln, dz / ln
+        T[i, 0], T[i, 1], T[i, 2] = tx, ty, tz
+        ux, uy, uz = ref_u[i, 0], ref_u[i, 1], ref_u[i, 2]
+        ex, ey, ez = ref_e[i, 0], ref_e[i, 1], ref_e[i, 2]
+        d = ux * tx + uy * ty + uz * tz
+        cx, cy, cz = _cross(ux, uy, uz, tx, ty, tz)
+        # a1 = P(u→t) e = d e + c×e + (c·e)/(1+d) c
+        qx, qy, qz = _cross(cx, cy, cz, ex, ey, ez)
+        ce = (cx * ex + cy * ey + cz * ez) / (1.0 + d)
+        a1x, a1y, a1z = d * ex + qx + ce * cx, d * ey + qy + ce * cy, d * ez + qz + ce * cz
+        a2x, a2y, a2z = _cross(tx, ty, tz, a1x, a1y, a1z)
+        th = y[6 + 4 * i]
+        co, si = math.cos(th), math.sin(th)
+        E1[i, 0], E1[i, 1], E1[i, 2] = co * a1x + si * a2x, co * a1y + si * a2y, co * a1z + si * a2z
+        E2[i, 0], E2[i, 1], E2[i, 2] = co * a2x - si * a1x, co * a2y - si * a1y, co * a2z - si * a1z
+        S[i, 0], S[i, 1], S[i, 2] = -cx / (1.0 + d), -cy / (1.0 + d), -cz / (1.0 + d)
+
+
+@njit(cache=True)
+def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e,
+            T, E1, E2, LEN, S, GT, GTH):
+    """Elastic energy; fills GT (n+1, 3) = ∂E/∂t at fixed material spin, GTH = ∂E/∂θ."""
+    frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S)
+    GT[:, :] = 0.0
+    GTH[:] = 0.0
+    energy = 0.0
+    for j in range(n):
+        a, b = j, j + 1
+        tax, tay, taz = T[a, 0], T[a, 1], T[a, 2]
+        tbx, tby, tbz = T[b, 0], T[b, 1], T[b, 2]
+        cx, cy, cz = _cross(tax, tay, taz, tbx, tby, tbz)
+        cosp = tax * tbx + tay * tby + taz * tbz
+        sinp = math.sqrt(cx * cx + cy * cy + cz * cz)
+        phi = math.atan2(sinp, cosp)
+        if phi < 1e-4:
+            p2 = phi * phi
+            f = 1.0 + p2 / 6.0 + 7.0 * p2 * p2 / 360.0
+            g = 1.0 / 3.0 + 2.0 * p2 / 15.0
+        else:
+            f = phi / sinp
+            g = (sinp - phi * cosp) / (sinp * sinp * sinp)
+        e1x, e1y, e1z = E1[b, 0], E1[b, 1], E1[b, 2]
+        e2x, e2y, e2z = E2[b, 0], E2[b, 1], E2[b, 2]
+        k1 = f * (cx * e1x + cy * e1y + cz * e1z) / h
+        k2 = f * (cx * e2x + cy * e2y + cz * e2z) / h
+        # twist ψ: angle from P(ta→tb) e1_a to e1_b about tb
+        vx, vy, vz = E1[a, 0], E1[a, 1], E1[a, 2]
+        qx, qy, qz = _cross(cx, cy, cz, vx, vy, vz)
+        cv = (cx * vx + cy * vy + cz * vz) / (1.0 + cosp)
+        px, py, pz = cosp * vx + qx + cv * cx, cosp * vy + qy + cv * cy, cosp * vz + qz + cv * cz
+        wx, wy, wz = _cross(px, py, pz, e1x, e1y, e1z)
+        psi = math.atan2(wx * tbx + wy * tby + wz * tbz, px * e1x + py * e1y + pz * e1z)
+        d2 = k2 - kappa0
+        d3 = psi / h - tau0
+        energy += 0.5 * h * (A * (k1 * k1 + d2 * d2) + C * d3 * d3)
+        m1, m2, m3 = A * k1 * h, A * d2 * h, C * d3
+        Vx, Vy, Vz = m1 * e1x + m2 * e2x, m1 * e1y + m2 * e2y, m1 * e1z + m2 * e2z
+        cV = g * (cx * Vx + cy * Vy + cz * Vz)
+        kb = m3 / (1.0 + cosp)  # (m3/2) κb = m3 c/(1 + cos φ)
+        rx, ry, rz = _cross(tbx, tby, tbz, Vx, Vy, Vz)
+        GT[a, 0] += (-cV * tbx + f * rx) / h + kb * cx
+        GT[a, 1] += (-cV * tby + f * ry) / h + kb * cy
+        GT[a, 2] += (-cV * tbz + f * rz) / h + kb * cz
+        rx, ry, rz = _cross(Vx, Vy, Vz, tax, tay, taz)
+        GT[b, 0] += (-cV * tax + f * rx) / h + kb * cx
+        GT[b, 1] += (-cV * tay + f * ry) / h + kb * cy
+        GT[b, 2] += (-cV * taz + f * rz) / h + kb * cz
+        GTH[b] += m1 * k2 - m2 * k1 + m3
+        GTH[a] -= m3
+    for i in range(1, n + 1):
+        st = LEN[i] / h - 1.0
+        energy += 0.5 * K * h * st * st
+    if hook_k > 0.0:  # E_hook = k (1 + t0·e_z): minimum with the hook along −z
+        energy += hook_k * (1.0 + T[0, 2])
+        GT[0, 2] += hook_k
+    return energy
+
+
+@njit(cache=True)
+def bead_gradient(n, h, K, T, LEN, GT, DR):
+    """DR (n+1, 3) = ∂E/∂r_i from GT (bond part) and stretching."""
+    DR[:, :] = 0.0
+    for i in range(1, n + 1):
+        tx, ty, tz = T[i, 0], T[i, 1], T[i, 2]
+        gx, gy, gz = GT[i, 0], GT[i, 1], GT[i, 2]
+        gt = gx * tx + gy * ty + gz * tz
+        st = K * (LEN[i] / h - 1.0)
+        inv = 1.0 / LEN[i]
+        fx = (gx - gt * tx) * inv + st * tx
+        fy = (gy - gt * ty) * inv + st * ty
+        fz = (gz - gt * tz) * inv + st * tz
+        DR[i, 0] += fx
+        DR[i, 1] += fy
+        DR[i, 2] += fz
+        DR[i - 1, 0] -= fx
+        DR[i - 1, 1] -= fy
+        DR[i - 1, 2] -= fz
+
+
+@njit(cache=True)
+def rhs(y, ydot, n, h, A, C, K, kappa0, tau0, hook_k, hook_mode, anchor, sphere_drag,
+        gpar, gperp, grot, torque, omega_frame, ref_u, ref_e, noise_f, noise_m,
+        T, E1, E2, LEN, S, GT, GTH, DR, V):
+    """Overdamped RFT dynamics (paper eqs. 5–6 and the hook balance of §2.3).
+
+    Lab-frame velocities from [γ∥ tt + γ⊥(1 − tt)] w v = f (w = h, end beads h/2, t the
+    averaged tangent), spin γR h ω3 = m, hook [γR h t0t0 + ½γ⊥h³(1 − t0t0)] ω = M e_z − τ;
+    then written in a frame rotating at ``omega_frame`` about e_z. ``noise_f`` (n+1, 3) and
+    ``noise_m`` (n+1) are thermal forces/torques (already scaled), or zeros.
+    Returns the elastic force on bead 0 (its z-component is the thrust when anchored).
+    """
+    energy = elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e,
+                     T, E1, E2, LEN, S, GT, GTH)
+    bead_gradient(n, h, K, T, LEN, GT, DR)
+    # bead velocities (lab frame)
+    for i in range(n + 1):
+        fx = -DR[i, 0] + noise_f[i, 0]
+        fy = -DR[i, 1] + noise_f[i, 1]
+        fz = -DR[i, 2] + noise_f[i, 2]
+        if i == 0:
+            tx, ty, tz = T[1, 0], T[1, 1], T[1, 2]
+            w = 0.5 * h
+        elif i == n:
+            tx, ty, tz = T[n, 0], T[n, 1], T[n, 2]
+            w = 0.5 * h
+        else:
+            tx, ty, tz = T[i, 0] + T[i + 1, 0], T[i, 1] + T[i + 1, 1], T[i, 2] + T[i + 1, 2]
+            nn = math.sqrt(tx * tx + ty * ty + tz * tz)
+            tx, ty, tz = tx / nn, ty / nn, tz / nn
+            w = h
+        if i == 0 and anchor == ANCHOR_FIXED:
+            V[0, 0] = V[0, 1] = V[0, 2] = 0.0
+            continue
+        if i == 0 and anchor == ANCHOR_SPHERE:
+            zz = w * (gpar * tz * tz + gperp * (1.0 - tz * tz)) + sphere_drag
+            V[0, 0] = V[0, 1] = 0.0
+            V[0, 2] = fz / zz
+            continue
+        ft = fx * tx + fy * ty + fz * tz
+        ip, iq = 1.0 / (w * gpar), 1.0 / (w * gperp)
+        V[i, 0] = iq * fx + (ip - iq) * ft * tx
+        V[i, 1] = iq * fy + (ip - iq) * ft * ty
+        V[i, 2] = iq * fz + (ip - iq) * ft * tz
+    # positions in the rotating frame
+    for i in range(n + 1):
+        o = 3 + 4 * i
+        ydot[o] = V[i, 0] + omega_frame * y[o + 1]
+        ydot[o + 1] = V[i, 1] - omega_frame * y[o]
+        ydot[o + 2] = V[i, 2]
+    # bond spins: γR h ω3 = −∂E/∂θ + m_th; θ̇ = ω3 − Ω_f t_z − s·ṫ
+    for i in range(1, n + 1):
+        o, p = 3 + 4 * i, 3 + 4 * (i - 1)
+        om = (-GTH[i] + noise_m[i]) / (grot * h) - omega_frame * T[i, 2]
+        inv = 1.0 / LEN[i]
+        dx, dy, dz = (ydot[o] - ydot[p]) * inv, (ydot[o + 1] - ydot[p + 1]) * inv, (ydot[o + 2] - ydot[p + 2]) * inv
+        sd = S[i, 0] * dx + S[i, 1] * dy + S[i, 2] * dz  # s ⟂ t, so the tangential part drops out
+        ydot[o + 3] = om - sd
+    # hook frame: torque balance on frame 0
+    tx, ty, tz = T[0, 0], T[0, 1], T[0, 2]
+    gx, gy, gz = GT[0, 0], GT[0, 1], GT[0, 2]
+    qx, qy, qz = _cross(tx, ty, tz, gx, gy, gz)
+    mx = -(qx + GTH[0] * tx)
+    my = -(qy + GTH[0] * ty)
+    mz = torque - (qz + GTH[0] * tz)
+    mt = mx * tx + my * ty + mz * tz
+    wt = (mt + noise_m[0]) / (grot * h)
+    if hook_mode == HOOK_CLAMPED:
+        wx, wy, wz = wt * tx, wt * ty, wt * tz
+    else:
+        ipp = 1.0 / (0.5 * gperp * h * h * h)
+        wx = wt * tx + ipp * (mx - mt * tx)
+        wy = wt * ty + ipp * (my - mt * ty)
+        wz = wt * tz + ipp * (mz - mt * tz)
+    wz -= omega_frame
+    ux, uy, uz = _cross(wx, wy, wz, y[0], y[1], y[2])
+    ydot[0], ydot[1], ydot[2] = ux, uy, uz
+    dtx, dty, dtz = _cross(wx, wy, wz, tx, ty, tz)
+    ydot[6] = wx * tx + wy * ty + wz * tz - (S[0, 0] * dtx + S[0, 1] * dty + S[0, 2] * dtz)
+    return energy, -DR[0, 0], -DR[0, 1], -DR[0, 2]

@@ -1,0 +1,165 @@
+"""The rod model: parameters + boundary conditions → right-hand side of the ODE.
+
+:class:`RodModel` wraps the Numba kernels of :mod:`flagellum.rod.kernels` with the state
+layout, the reference-frame charts and the workspace arrays, and exposes ``rhs(t, y)``
+(scipy convention), the energy and the gradients.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..helix import DiscreteHelix, discrete_helix
+from ..motor import Boundary, Motor
+from ..params import Params
+from . import kernels as K
+
+_HOOK = {"free": K.HOOK_FREE, "elastic": K.HOOK_ELASTIC, "clamped": K.HOOK_CLAMPED}
+_ANCHOR = {"fixed": K.ANCHOR_FIXED, "sphere": K.ANCHOR_SPHERE}
+
+
+def state_size(n: int) -> int:
+    return 3 + 4 * (n + 1)
+
+
+def positions(y: np.ndarray) -> np.ndarray:
+    """Bead positions (n+1, 3) of a state (or (..., n+1, 3) for a stack of states)."""
+    y = np.asarray(y)
+    return y[..., 3:].reshape(y.shape[:-1] + (-1, 4))[..., :3]
+
+
+def angles(y: np.ndarray) -> np.ndarray:
+    y = np.asarray(y)
+    return y[..., 3:].reshape(y.shape[:-1] + (-1, 4))[..., 3]
+
+
+class RodModel:
+    """Discrete Kirchhoff rod driven by a motor, in a frame rotating at ``omega_frame``.
+
+    Parameters
+    ----------
+    params, motor, boundary : the physics.
+    omega_frame : angular velocity [rad/s] of the computational frame about e_z. Lab-frame
+        positions are R_z(omega_frame·t) applied to the state. A frame co-rotating with the
+        filament makes the aligned steady state a fixed point.
+    """
+
+    def __init__(self, params: Params | None = None, motor: Motor | None = None,
+                 boundary: Boundary | None = None, omega_frame: float = 0.0):
+        self.params = params or Params()
+        self.motor = motor or Motor()
+        self.boundary = boundary or Boundary()
+        self.omega_frame = float(omega_frame)
+        f = self.params.filament
+        self.n = f.n_segments
+        self.h = f.segment_length
+        self.gammas = self.params.gammas
+        self.sphere_drag = self.boundary.sphere_drag(self.params.fluid.viscosity)
+        n1 = self.n + 1
+        self.ref_u = np.zeros((n1, 3))
+        self.ref_e = np.zeros((n1, 3))
+        self._ws = [np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros(n1),
+                    np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros(n1), np.zeros((n1, 3)),
+                    np.zeros((n1, 3))]
+        self._zf = np.zeros((n1, 3))
+        self._zm = np.zeros(n1)
+        self.last_force = np.zeros(3)  #: elastic force on bead 0 at the last rhs call
+
+    # -- state -----------------------------------------------------------------------
+    def initial_state(self, helix: DiscreteHelix | None = None) -> np.ndarray:
+        """State of the stress-free discrete helix (bead 0 at the origin, axis along −z).
+
+        Sets the charts to the helix' own frames, so all material angles start at 0. With a
+        clamped hook, the whole helix is turned so that its hook frame points along −z.
+        """
+        dh = helix or discrete_helix(self.params.filament)
+        pos, frames = dh.positions.copy(), dh.frames.copy()
+        if self.boundary.hook == "clamped":
+            from ..helix import rotation_between
+
+            rot = rotation_between(frames[0][:, 2], np.array([0.0, 0.0, -1.0]))
+            pos = pos @ rot.T
+            frames = np.einsum("ij,njk->nik", rot, frames)
+        y = np.zeros(state_size(self.n))
+        y[:3] = frames[0][:, 2]
+        body = y[3:].reshape(-1, 4)
+        body[:, :3] = pos
+        self.ref_u[:] = frames[:, :, 2]
+        self.ref_e[:] = frames[:, :, 0]
+        return y
+
+    def rechart(self, y: np.ndarray, threshold: float = -0.5) -> bool:
+        """Move chart poles that a tangent approaches the singularity of (t·u < threshold).
+
+        The new pole is the current tangent and the new reference vector the current
+        reference a1, so the material frames and the state are unchanged.
+        """
+        T, E1, E2, L, S = self._ws[:5]
+        K.frames(y, self.n, self.ref_u, self.ref_e, T, E1, E2, L, S)
+        bad = np.einsum("ij,ij->i", T, self.ref_u) < threshold
+        if not bad.any():
+            return False
+        th = angles(y)[bad]
+        c, s = np.cos(th), np.sin(th)
+        a1 = c[:, None] * E1[bad] - s[:, None] * E2[bad]
+        self.ref_u[bad] = T[bad]
+        self.ref_e[bad] = a1
+        return True
+
+    def charts(self):
+        return self.ref_u.copy(), self.ref_e.copy()
+
+    def set_charts(self, ref_u, ref_e):
+        self.ref_u[:] = ref_u
+        self.ref_e[:] = ref_e
+
+    # -- physics ----------------------------------------------------------------------
+    def _kernel_args(self):
+        f = self.params.filament
+        return (self.n, self.h, f.bend_rigidity, f.twist_rigidity, f.stretch_modulus,
+                f.kappa0, f.torsion, self.boundary.hook_stiffness)
+
+    def energy(self, y: np.ndarray) -> float:
+        """Elastic energy [pN·µm] (bending, twist, stretching, hook)."""
+        ws = self._ws
+        return K.elastic(y, *self._kernel_args(), self.ref_u, self.ref_e, *ws[:5], ws[5], ws[6])
+
+    def gradients(self, y: np.ndarray):
+        """(E, ∂E/∂r (n+1,3), ∂E/∂θ (n+1), G_t (n+1,3)) with frames transported (gauge-free)."""
+        ws = self._ws
+        e = self.energy(y)
+        n, h, _, _, Kst = self._kernel_args()[:5]
+        dr = np.zeros((self.n + 1, 3))
+        K.bead_gradient(n, h, Kst, ws[0], ws[3], ws[5], dr)
+        return e, dr, ws[6].copy(), ws[5].copy()
+
+    def rhs(self, t: float, y: np.ndarray, noise_f=None, noise_m=None, out=None) -> np.ndarray:
+        """dy/dt at time t (scipy's ``fun(t, y)``)."""
+        ydot = np.empty_like(y) if out is None else out
+        ws = self._ws
+        gp, gn, gr = self.gammas
+        res = K.rhs(y, ydot, *self._kernel_args(), _HOOK[self.boundary.hook],
+                    _ANCHOR[self.boundary.anchor], self.sphere_drag, gp, gn, gr,
+                    self.motor(t), self.omega_frame, self.ref_u, self.ref_e,
+                    self._zf if noise_f is None else noise_f,
+                    self._zm if noise_m is None else noise_m, *ws)
+        self.last_force[:] = res[1:]
+        return ydot
+
+    def bead_force(self, t: float, y: np.ndarray) -> np.ndarray:
+        """Elastic force on bead 0 (the anchor) at state y."""
+        self.rhs(t, y)
+        return self.last_force.copy()
+
+    def to_lab(self, t, pos: np.ndarray) -> np.ndarray:
+        """Rotate computational-frame positions (..., 3) at time(s) t into the lab frame."""
+        ang = self.omega_frame * np.asarray(t, float)
+        c, s = np.cos(ang), np.sin(ang)
+        out = np.array(pos, float, copy=True)
+        x, yy = pos[..., 0], pos[..., 1]
+        if np.ndim(ang):
+            shape = (-1,) + (1,) * (pos.ndim - 2)
+            c, s = c.reshape(shape), s.reshape(shape)
+        out[..., 0] = c * x - s * yy
+        out[..., 1] = s * x + c * yy
+        return out

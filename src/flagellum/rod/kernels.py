@@ -155,26 +155,66 @@ def bead_gradient(n, h, K, T, LEN, GT, DR):
         DR[i - 1, 2] -= fz
 
 
+# indices into the packed parameter arrays of :func:`rhs`
+P_H, P_A, P_C, P_K, P_KAPPA, P_TAU, P_HOOKK, P_SPHERE, P_GPAR, P_GPERP, P_GROT, P_TORQUE, \
+    P_OMEGA, P_ELASTIC = range(14)
+I_N, I_HOOK, I_ANCHOR, I_GEN = range(4)
+
+
 @njit(cache=True)
-def rhs(y, ydot, n, h, A, C, K, kappa0, tau0, hook_k, hook_mode, anchor, sphere_drag,
-        gpar, gperp, grot, torque, omega_frame, ref_u, ref_e, noise_f, noise_m,
-        T, E1, E2, LEN, S, GT, GTH, DR, V):
+def workspace(n):
+    n1 = n + 1
+    return (np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros(n1),
+            np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros(n1), np.zeros((n1, 3)),
+            np.zeros((n1, 3)))
+
+
+@njit(cache=True)
+def rhs(y, ydot, prm, iprm, ref_u, ref_e, ext_f, ext_m, ext_hook, ws):
     """Overdamped RFT dynamics (paper eqs. 5–6 and the hook balance of §2.3).
 
     Lab-frame velocities from [γ∥ tt + γ⊥(1 − tt)] w v = f (w = h, end beads h/2, t the
     averaged tangent), spin γR h ω3 = m, hook [γR h t0t0 + ½γ⊥h³(1 − t0t0)] ω = M e_z − τ;
-    then written in a frame rotating at ``omega_frame`` about e_z. ``noise_f`` (n+1, 3) and
-    ``noise_m`` (n+1) are thermal forces/torques (already scaled), or zeros.
-    Returns the elastic force on bead 0 (its z-component is the thrust when anchored).
+    then written in a frame rotating at Ω = prm[P_OMEGA] about e_z.
+
+    ``ext_f`` (n+1, 3), ``ext_m`` (n+1): extra forces on the beads and torques about the
+    frame tangents and ``ext_hook`` (3) a torque on the hook frame (thermal noise), added to
+    the elastic forces and the motor torque scaled by prm[P_ELASTIC].
+    If iprm[I_GEN] = 1 they are *generalized* forces conjugate to (r_i, θ_i) and are turned
+    into physical ones with the chart's spin connection (used for the Itô drift).
+    Returns (energy, elastic force on bead 0 (3 values), motor speed ω_hook·e_z in the lab).
     """
-    energy = elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e,
-                     T, E1, E2, LEN, S, GT, GTH)
-    bead_gradient(n, h, K, T, LEN, GT, DR)
-    # bead velocities (lab frame)
+    n = iprm[I_N]
+    h = prm[P_H]
+    gpar, gperp, grot = prm[P_GPAR], prm[P_GPERP], prm[P_GROT]
+    omega_frame = prm[P_OMEGA]
+    T, E1, E2, LEN, S, GT, GTH, DR, V = ws
+    energy = elastic(y, n, h, prm[P_A], prm[P_C], prm[P_K], prm[P_KAPPA], prm[P_TAU],
+                     prm[P_HOOKK], ref_u, ref_e, T, E1, E2, LEN, S, GT, GTH)
+    bead_gradient(n, h, prm[P_K], T, LEN, GT, DR)
+    el = prm[P_ELASTIC]
+    f0x, f0y, f0z = -DR[0, 0], -DR[0, 1], -DR[0, 2]
     for i in range(n + 1):
-        fx = -DR[i, 0] + noise_f[i, 0]
-        fy = -DR[i, 1] + noise_f[i, 1]
-        fz = -DR[i, 2] + noise_f[i, 2]
+        for k in range(3):
+            DR[i, k] = el * DR[i, k] - ext_f[i, k]
+        GTH[i] = el * GTH[i] - ext_m[i]
+    if el != 1.0:
+        for i in range(n + 1):
+            for k in range(3):
+                GT[i, k] *= el
+    if iprm[I_GEN] == 1:  # physical force = generalized − chart correction of the θ-forces
+        for i in range(1, n + 1):
+            m = ext_m[i]
+            sx, sy, sz = m * S[i, 0], m * S[i, 1], m * S[i, 2]
+            st = sx * T[i, 0] + sy * T[i, 1] + sz * T[i, 2]
+            for k, sk in enumerate((sx, sy, sz)):
+                g = (sk - st * T[i, k]) / LEN[i]
+                DR[i, k] += g
+                DR[i - 1, k] -= g
+    # bead velocities (lab frame)
+    anchor = iprm[I_ANCHOR]
+    for i in range(n + 1):
+        fx, fy, fz = -DR[i, 0], -DR[i, 1], -DR[i, 2]
         if i == 0:
             tx, ty, tz = T[1, 0], T[1, 1], T[1, 2]
             w = 0.5 * h
@@ -190,7 +230,7 @@ def rhs(y, ydot, n, h, A, C, K, kappa0, tau0, hook_k, hook_mode, anchor, sphere_
             V[0, 0] = V[0, 1] = V[0, 2] = 0.0
             continue
         if i == 0 and anchor == ANCHOR_SPHERE:
-            zz = w * (gpar * tz * tz + gperp * (1.0 - tz * tz)) + sphere_drag
+            zz = w * (gpar * tz * tz + gperp * (1.0 - tz * tz)) + prm[P_SPHERE]
             V[0, 0] = V[0, 1] = 0.0
             V[0, 2] = fz / zz
             continue
@@ -199,30 +239,29 @@ def rhs(y, ydot, n, h, A, C, K, kappa0, tau0, hook_k, hook_mode, anchor, sphere_
         V[i, 0] = iq * fx + (ip - iq) * ft * tx
         V[i, 1] = iq * fy + (ip - iq) * ft * ty
         V[i, 2] = iq * fz + (ip - iq) * ft * tz
-    # positions in the rotating frame
-    for i in range(n + 1):
+    for i in range(n + 1):  # positions in the rotating frame
         o = 3 + 4 * i
         ydot[o] = V[i, 0] + omega_frame * y[o + 1]
         ydot[o + 1] = V[i, 1] - omega_frame * y[o]
         ydot[o + 2] = V[i, 2]
-    # bond spins: γR h ω3 = −∂E/∂θ + m_th; θ̇ = ω3 − Ω_f t_z − s·ṫ
+    # bond spins: γR h ω3 = −∂E/∂θ + m_th; θ̇ = ω3 − Ω t_z − s·ṫ
     for i in range(1, n + 1):
         o, p = 3 + 4 * i, 3 + 4 * (i - 1)
-        om = (-GTH[i] + noise_m[i]) / (grot * h) - omega_frame * T[i, 2]
+        om = -GTH[i] / (grot * h) - omega_frame * T[i, 2]
         inv = 1.0 / LEN[i]
-        dx, dy, dz = (ydot[o] - ydot[p]) * inv, (ydot[o + 1] - ydot[p + 1]) * inv, (ydot[o + 2] - ydot[p + 2]) * inv
-        sd = S[i, 0] * dx + S[i, 1] * dy + S[i, 2] * dz  # s ⟂ t, so the tangential part drops out
-        ydot[o + 3] = om - sd
+        dx = (ydot[o] - ydot[p]) * inv
+        dy = (ydot[o + 1] - ydot[p + 1]) * inv
+        dz = (ydot[o + 2] - ydot[p + 2]) * inv
+        ydot[o + 3] = om - (S[i, 0] * dx + S[i, 1] * dy + S[i, 2] * dz)  # s ⟂ t
     # hook frame: torque balance on frame 0
     tx, ty, tz = T[0, 0], T[0, 1], T[0, 2]
-    gx, gy, gz = GT[0, 0], GT[0, 1], GT[0, 2]
-    qx, qy, qz = _cross(tx, ty, tz, gx, gy, gz)
-    mx = -(qx + GTH[0] * tx)
-    my = -(qy + GTH[0] * ty)
-    mz = torque - (qz + GTH[0] * tz)
+    qx, qy, qz = _cross(tx, ty, tz, GT[0, 0], GT[0, 1], GT[0, 2])
+    mx = ext_hook[0] - (qx + GTH[0] * tx)
+    my = ext_hook[1] - (qy + GTH[0] * ty)
+    mz = ext_hook[2] + el * prm[P_TORQUE] - (qz + GTH[0] * tz)
     mt = mx * tx + my * ty + mz * tz
-    wt = (mt + noise_m[0]) / (grot * h)
-    if hook_mode == HOOK_CLAMPED:
+    wt = mt / (grot * h)
+    if iprm[I_HOOK] == HOOK_CLAMPED:
         wx, wy, wz = wt * tx, wt * ty, wt * tz
     else:
         ipp = 1.0 / (0.5 * gperp * h * h * h)
@@ -230,8 +269,30 @@ def rhs(y, ydot, n, h, A, C, K, kappa0, tau0, hook_k, hook_mode, anchor, sphere_
         wy = wt * ty + ipp * (my - mt * ty)
         wz = wt * tz + ipp * (mz - mt * tz)
     wz -= omega_frame
-    ux, uy, uz = _cross(wx, wy, wz, y[0], y[1], y[2])
-    ydot[0], ydot[1], ydot[2] = ux, uy, uz
+    ydot[0], ydot[1], ydot[2] = _cross(wx, wy, wz, y[0], y[1], y[2])
     dtx, dty, dtz = _cross(wx, wy, wz, tx, ty, tz)
     ydot[6] = wx * tx + wy * ty + wz * tz - (S[0, 0] * dtx + S[0, 1] * dty + S[0, 2] * dtz)
-    return energy, -DR[0, 0], -DR[0, 1], -DR[0, 2]
+    return energy, f0x, f0y, f0z, wz + omega_frame
+
+
+@njit(cache=True)
+def band_jacobian(y, f0, prm, iprm, ref_u, ref_e, ext_f, ext_m, ext_hook, ws, kl, ku, ab,
+                  scale, y_work, f_work):
+    """Finite-difference Jacobian of :func:`rhs` into LU-ready band storage ``ab``.
+
+    Columns j, j + w, j + 2w, … (w = kl + ku + 1) are perturbed together, so the cost is
+    w right-hand sides whatever the size. ``ab[j, kl+ku+i−j] = scale · ∂f_i/∂y_j``.
+    """
+    n = y.shape[0]
+    w = kl + ku + 1
+    kv = kl + ku
+    ab[:, :] = 0.0
+    for g in range(min(w, n)):
+        y_work[:] = y
+        for j in range(g, n, w):
+            y_work[j] += 1e-7 * max(1.0, abs(y[j]))
+        rhs(y_work, f_work, prm, iprm, ref_u, ref_e, ext_f, ext_m, ext_hook, ws)
+        for j in range(g, n, w):
+            inv = scale / (y_work[j] - y[j])
+            for i in range(max(0, j - ku), min(n, j + kl + 1)):
+                ab[j, kv + i - j] = (f_work[i] - f0[i]) * inv

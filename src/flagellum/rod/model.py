@@ -58,12 +58,17 @@ class RodModel:
         n1 = self.n + 1
         self.ref_u = np.zeros((n1, 3))
         self.ref_e = np.zeros((n1, 3))
-        self._ws = [np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros(n1),
-                    np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros(n1), np.zeros((n1, 3)),
-                    np.zeros((n1, 3))]
+        self._ws = K.workspace(self.n)
         self._zf = np.zeros((n1, 3))
         self._zm = np.zeros(n1)
+        self._zh = np.zeros(3)
         self.last_force = np.zeros(3)  #: elastic force on bead 0 at the last rhs call
+        gp, gn, gr = self.gammas
+        self.prm = np.array([self.h, f.bend_rigidity, f.twist_rigidity, f.stretch_modulus,
+                             f.kappa0, f.torsion, self.boundary.hook_stiffness,
+                             self.sphere_drag, gp, gn, gr, self.motor(0.0), self.omega_frame, 1.0])
+        self.iprm = np.array([self.n, _HOOK[self.boundary.hook], _ANCHOR[self.boundary.anchor], 0],
+                             dtype=np.int64)
 
     # -- state -----------------------------------------------------------------------
     def initial_state(self, helix: DiscreteHelix | None = None) -> np.ndarray:
@@ -121,8 +126,7 @@ class RodModel:
 
     def energy(self, y: np.ndarray) -> float:
         """Elastic energy [pN·µm] (bending, twist, stretching, hook)."""
-        ws = self._ws
-        return K.elastic(y, *self._kernel_args(), self.ref_u, self.ref_e, *ws[:5], ws[5], ws[6])
+        return K.elastic(y, *self._kernel_args(), self.ref_u, self.ref_e, *self._ws[:7])
 
     def gradients(self, y: np.ndarray):
         """(E, ∂E/∂r (n+1,3), ∂E/∂θ (n+1), G_t (n+1,3)) with frames transported (gauge-free)."""
@@ -133,17 +137,19 @@ class RodModel:
         K.bead_gradient(n, h, Kst, ws[0], ws[3], ws[5], dr)
         return e, dr, ws[6].copy(), ws[5].copy()
 
+    def set_omega_frame(self, omega: float) -> None:
+        self.omega_frame = float(omega)
+        self.prm[K.P_OMEGA] = self.omega_frame
+
     def rhs(self, t: float, y: np.ndarray, noise_f=None, noise_m=None, out=None) -> np.ndarray:
-        """dy/dt at time t (scipy's ``fun(t, y)``)."""
+        """dy/dt at time t (scipy's ``fun(t, y)``); optional thermal forces/torques."""
         ydot = np.empty_like(y) if out is None else out
-        ws = self._ws
-        gp, gn, gr = self.gammas
-        res = K.rhs(y, ydot, *self._kernel_args(), _HOOK[self.boundary.hook],
-                    _ANCHOR[self.boundary.anchor], self.sphere_drag, gp, gn, gr,
-                    self.motor(t), self.omega_frame, self.ref_u, self.ref_e,
+        self.prm[K.P_TORQUE] = self.motor(t)
+        res = K.rhs(y, ydot, self.prm, self.iprm, self.ref_u, self.ref_e,
                     self._zf if noise_f is None else noise_f,
-                    self._zm if noise_m is None else noise_m, *ws)
-        self.last_force[:] = res[1:]
+                    self._zm if noise_m is None else noise_m, self._zh, self._ws)
+        self.last_force[:] = res[1:4]
+        self.last_energy, self.last_motor_speed = res[0], res[4]
         return ydot
 
     def bead_force(self, t: float, y: np.ndarray) -> np.ndarray:

@@ -1,0 +1,101 @@
+"""Observables of a trajectory (paper §3.1–3.2).
+
+* thrust F: force of the filament on its anchor along e_z (on the load sphere when attached),
+* ω: motor speed, the rotation rate of the hook frame about the motor axis,
+* χ: precession rate of the filament as a whole about the motor axis (azimuthal rate of its
+  centroid; zero when the centroid stays on the axis, as in the aligned state),
+* r(t) = |r_N − r_0|, ⟨r⟩ and σ (eqs. 9–10), σ in units of σ0 = R/√2,
+* block-averaged means with standard errors, and a steady-state test.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+
+def end_to_end(positions: np.ndarray) -> np.ndarray:
+    """r(t) = |r_N − r_0| for positions of shape (n_t, n+1, 3)."""
+    return np.linalg.norm(positions[:, -1] - positions[:, 0], axis=-1)
+
+
+def unwrapped_rate(t: np.ndarray, angle: np.ndarray) -> float:
+    """Least-squares slope of an unwrapped angle series."""
+    if len(t) < 2:
+        return math.nan
+    return float(np.polyfit(t, np.unwrap(angle), 1)[0])
+
+
+def precession_rate(t: np.ndarray, positions: np.ndarray, min_offset: float) -> tuple[float, float]:
+    """(χ, mean centroid offset from the motor axis); χ = 0 if the offset < ``min_offset``."""
+    c = positions.mean(axis=1)
+    rho = np.hypot(c[:, 0], c[:, 1])
+    if len(t) < 2 or rho.mean() < min_offset:
+        return 0.0, float(rho.mean()) if len(rho) else math.nan
+    return unwrapped_rate(t, np.arctan2(c[:, 1], c[:, 0])), float(rho.mean())
+
+
+def block_average(x: np.ndarray, n_blocks: int = 8) -> tuple[float, float]:
+    """Mean and its standard error from ``n_blocks`` contiguous block means."""
+    x = np.asarray(x, float)
+    if len(x) == 0:
+        return math.nan, math.nan
+    if len(x) < 2 * n_blocks:
+        return float(x.mean()), float(x.std(ddof=1) / math.sqrt(len(x))) if len(x) > 1 else math.nan
+    blocks = np.array([b.mean() for b in np.array_split(x, n_blocks)])
+    return float(x.mean()), float(blocks.std(ddof=1) / math.sqrt(n_blocks))
+
+
+def is_steady(x: np.ndarray, rel_tol: float = 1e-3, abs_tol: float = 1e-6) -> bool:
+    """Time averages settled: first and second half of the window agree within their errors."""
+    x = np.asarray(x, float)
+    if len(x) < 16:
+        return False
+    a, ea = block_average(x[: len(x) // 2], 4)
+    b, eb = block_average(x[len(x) // 2:], 4)
+    tol = max(rel_tol * max(abs(a), abs(b)), abs_tol, 3 * math.hypot(ea, eb))
+    return abs(a - b) <= tol
+
+
+@dataclass(frozen=True)
+class Summary:
+    """Time averages over the window [t_from, t_end] of a run."""
+
+    thrust_mean: float
+    thrust_std: float
+    thrust_err: float
+    omega_mean: float
+    chi_mean: float
+    end_to_end_mean: float
+    end_to_end_std: float
+    energy_final: float
+    centroid_offset: float
+    t_from: float
+    t_end: float
+    samples: int
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def summarize(t, thrust, motor_speed, positions, energy, helix_radius: float,
+              t_from: float | None = None) -> Summary:
+    """Averages over t ≥ t_from (default: the last half of the run)."""
+    t = np.asarray(t, float)
+    if t_from is None:
+        t_from = t[0] + 0.5 * (t[-1] - t[0])
+    sel = t >= t_from - 1e-15
+    if sel.sum() < 1:
+        sel = np.zeros_like(t, bool)
+        sel[-1] = True
+    th = np.asarray(thrust)[sel]
+    r = end_to_end(np.asarray(positions)[sel])
+    m, err = block_average(th)
+    chi, rho = precession_rate(t[sel], np.asarray(positions)[sel], 0.25 * helix_radius)
+    return Summary(thrust_mean=m, thrust_std=float(th.std()), thrust_err=err,
+                   omega_mean=float(np.mean(np.asarray(motor_speed)[sel])), chi_mean=chi,
+                   end_to_end_mean=float(r.mean()), end_to_end_std=float(r.std()),
+                   energy_final=float(np.asarray(energy)[-1]), centroid_offset=rho,
+                   t_from=float(t_from), t_end=float(t[-1]), samples=int(sel.sum()))

@@ -125,14 +125,112 @@ def rft(as_json, critical_force, **kwargs):
 @main.command()
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default="flagellum-demo",
               show_default=True, help="output directory")
-def demo(out_dir):
-    """Quick tour: the paper's filament, its rigid-helix theory and where it buckles."""
+@click.option("--json", "as_json", is_flag=True, help="print the results as JSON at the end")
+def demo(out_dir, as_json):
+    """Simulate the paper's filament below and above M_c1; write movies and a figure."""
+    from .demo import run_demo
     from .hydro.rft import rft_summary
 
     out = rft_summary(Params())
-    emit_table({k: out[k] for k in ("radius", "pitch", "axial_length", "thrust_per_torque",
-                                    "omega_per_torque", "A_eff", "pinned")},
-               "flagellum demo: the paper's normal-form filament (rigid-helix RFT)")
+    click.echo(f"Paper's filament: R = {out['radius']:.3f} µm, L0 = {out['axial_length']:.2f} µm, "
+               f"rigid-helix thrust/torque {out['pinned']['thrust_per_torque']:.3f} /µm (pinned)")
+    res = run_demo(out_dir, progress=None if not as_json else False)
+    if as_json:
+        emit_json(res)
+
+
+def motor_boundary_options(func):
+    """Flags of the motor torque and the boundary conditions."""
+    opts = [
+        click.option("--torque", type=float, default=1.0, show_default=True,
+                     help="motor torque M [pN·µm] (> 0 pushes)"),
+        click.option("--ramp-time", type=float, default=0.0, show_default=True,
+                     help="ramp the torque on smoothly over this time [s]"),
+        click.option("--anchor", type=click.Choice(["fixed", "sphere"]), default="fixed",
+                     show_default=True, help="first bead anchored or on a load sphere"),
+        click.option("--sphere-radius", type=float, default=None, help="load sphere radius a [µm]"),
+        click.option("--hook", type=click.Choice(["free", "elastic", "clamped"]), default="free",
+                     show_default=True, help="hook: free joint (paper), elastic, clamped"),
+        click.option("--hook-stiffness", type=float, default=0.0, help="hook stiffness k [pN·µm]"),
+    ]
+    for opt in reversed(opts):
+        func = opt(func)
+    return func
+
+
+def motor_boundary_from_cli(kwargs: dict):
+    from .motor import Boundary, Motor
+
+    motor = Motor(kwargs.pop("torque"), ramp_time=kwargs.pop("ramp_time"))
+    anchor, radius = kwargs.pop("anchor"), kwargs.pop("sphere_radius")
+    if radius is not None and anchor == "fixed":
+        anchor = "sphere"
+    hook, k = kwargs.pop("hook"), kwargs.pop("hook_stiffness")
+    if k and hook == "free":
+        hook = "elastic"
+    return motor, Boundary(anchor=anchor, sphere_radius=radius, hook=hook, hook_stiffness=k)
+
+
+@main.command()
+@param_options
+@motor_boundary_options
+@click.option("--time", "t_end", type=float, default=0.3, show_default=True, help="simulated time [s]")
+@click.option("--save-every", type=float, default=None, help="save interval [s] (default time/300)")
+@click.option("--average-from", type=float, default=None,
+              help="average observables from this time on [s] (default: last half)")
+@click.option("--thermal", is_flag=True, help="thermal noise at kT (also implied by --kT)")
+@click.option("--seed", type=int, default=0, show_default=True, help="random seed (thermal runs)")
+@click.option("--method", type=click.Choice(["cvode", "implicit"]), default=None,
+              help="integrator (default: cvode, implicit for thermal runs)")
+@click.option("--rtol", type=float, default=1e-6, show_default=True, help="relative tolerance (cvode)")
+@click.option("--dt", type=float, default=2e-5, show_default=True, help="time step of the implicit scheme [s]")
+@click.option("--frame", default="auto", show_default=True,
+              help="computational frame: auto (co-rotating), lab, or a rotation rate [rad/s]")
+@click.option("--output", "-o", type=click.Path(dir_okay=False), default=None, help="HDF5 trajectory file")
+@click.option("--json", "as_json", is_flag=True, help="print one JSON object (no progress bar)")
+def simulate(t_end, save_every, average_from, thermal, seed, method, rtol, dt, frame, output,
+             as_json, **kwargs):
+    """Simulate the motor-driven filament and report time-averaged observables."""
+    from .simulator import Simulator, SolverOptions
+
+    thermal = thermal or kwargs.get("kT") is not None
+    params = params_from_cli(kwargs)
+    motor, boundary = motor_boundary_from_cli(kwargs)
+    try:
+        frame = float(frame)
+    except ValueError:
+        pass
+    solver = SolverOptions(method=method or ("implicit" if thermal else "cvode"), rtol=rtol,
+                           atol=rtol * 1e-2, dt=dt, frame=frame)
+    sim = Simulator(params, motor, boundary, thermal=thermal, seed=seed, solver=solver)
+    traj = sim.run(t_end, save_every=save_every if save_every is not None else t_end / 300,
+                   output=output, progress=not as_json and None)
+    out = {**traj.summary(average_from).to_dict(), "steps": sim.steps,
+           "wall_seconds": sim.wall_seconds, "torque": motor.final_torque,
+           "segments": params.filament.n_segments}
+    if output:
+        out["output"] = str(output)
+    if as_json:
+        emit_json(out)
+    else:
+        emit_table(out, "flagellum simulate (µm, pN, s)")
+
+
+@main.command()
+@click.argument("file", type=click.Path(dir_okay=False))
+@click.option("--json", "as_json", is_flag=True, help="print one JSON object")
+def info(file, as_json):
+    """Provenance of an output file: parameters, version, git revision, seed, status."""
+    from .io import read_trajectory
+
+    data = read_trajectory(file)
+    attrs = {k: (v.item() if hasattr(v, "item") else v) for k, v in data["attrs"].items()}
+    attrs["records"] = int(len(data.get("t", [])))
+    if as_json:
+        emit_json(attrs)
+    else:
+        for k, v in attrs.items():
+            click.echo(f"{k}:" + ("\n  " + str(v).replace("\n", "\n  ") if "\n" in str(v) else f" {v}"))
 
 
 def _register_optional():

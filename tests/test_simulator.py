@@ -1,0 +1,137 @@
+"""Simulator: physics checks against independent results (rigid-helix RFT, step halving)."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from flagellum import Filament, Params
+from flagellum.errors import ParameterError, SimulationError
+from flagellum.helix import discrete_helix
+from flagellum.hydro import rft
+from flagellum.motor import Boundary, Motor
+from flagellum.simulator import Simulator, SolverOptions
+
+SHORT = Params(Filament(length=4.0))
+
+
+def _pinned_line(params):
+    """Rigid-helix thrust/torque of the same discrete helix pinned at bead 0 (bead drag,
+    bond spin and hook-frame friction as in the simulator)."""
+    dh = discrete_helix(params.filament)
+    gp, gn, gr = params.gammas
+    m = rft.resistance_matrix(*rft.bead_nodes(dh), gp, gn, 0.0)
+    h = params.filament.segment_length
+    t = dh.tangents
+    m[3:, 3:] += gr * h * np.einsum("ni,nj->ij", t, t)  # spin of bonds 1..N
+    t0 = dh.frames[0][:, 2]
+    m[3:, 3:] += gr * h * np.outer(t0, t0) + 0.5 * gn * h**3 * (np.eye(3) - np.outer(t0, t0))
+    return rft.pinned_rotation(m, dh.axis_direction)
+
+
+def test_small_torque_lies_on_pinned_rigid_helix_line():
+    M = 0.01
+    sim = Simulator(Params(), Motor(M), solver=SolverOptions(rtol=1e-8, atol=1e-10))
+    s = sim.run(0.2, save_every=1e-3).summary()
+    pin = _pinned_line(Params())
+    assert s.thrust_mean / M == pytest.approx(pin.thrust_per_torque, rel=0.01)
+    assert s.omega_mean / M == pytest.approx(pin.omega_per_torque, rel=0.01)
+    # and clearly off the unpinned line −C∥/B∥ (≈ 1.02 /µm)
+    assert s.thrust_mean / M < 0.85
+
+
+def test_pushing_torque_winds_up_and_raises_thrust():
+    sim = Simulator(Params(), Motor(1.0))
+    s = sim.run(0.1, save_every=1e-3).summary()
+    assert s.thrust_mean > 1.05 * _pinned_line(Params()).thrust_per_torque
+
+
+def test_handedness_flips_thrust():
+    """Mirror symmetry: a left-handed helix at +M is the mirror image of a right-handed one
+    at −M (torque is axial, force polar), so F_left(M) = F_right(−M) exactly."""
+    out = {}
+    for hand, M in (("right", 0.3), ("left", 0.3), ("right", -0.3)):
+        p = Params(Filament(length=4.0, handedness=hand))
+        out[hand, M] = Simulator(p, Motor(M)).run(0.02, save_every=5e-4).summary().thrust_mean
+    assert out["right", 0.3] > 0 > out["left", 0.3]
+    assert out["left", 0.3] == pytest.approx(out["right", -0.3], rel=1e-4)
+
+
+def test_cvode_and_implicit_agree_and_converge():
+    res = {}
+    for name, opt in (("cvode", SolverOptions(rtol=1e-7, atol=1e-9)),
+                      ("impl", SolverOptions(method="implicit", dt=1e-5)),
+                      ("impl2", SolverOptions(method="implicit", dt=5e-6))):
+        res[name] = Simulator(SHORT, Motor(0.5), solver=opt).run(0.01, save_every=1e-3).thrust
+    e1 = np.abs(res["impl"] - res["cvode"]).max()
+    e2 = np.abs(res["impl2"] - res["cvode"]).max()
+    assert e1 < 1e-3
+    assert e2 < 0.7 * e1  # first order: halving the step halves the error
+
+
+def test_load_sphere_moves_with_stokes_drag():
+    a = 1.0
+    sim = Simulator(SHORT, Motor(0.5), Boundary(anchor="sphere", sphere_radius=a))
+    tr = sim.run(0.02, save_every=1e-3)
+    z0 = tr.positions[:, 0, 2]
+    v = np.polyfit(tr.t[10:], z0[10:], 1)[0]
+    drag = 6 * math.pi * 1e-3 * a
+    assert v > 0  # pushed forward (+z)
+    assert np.mean(tr.thrust[10:]) == pytest.approx(drag * v, rel=0.05)
+
+
+def test_clamped_and_elastic_hook_run():
+    for b in (Boundary(hook="clamped"), Boundary(hook="elastic", hook_stiffness=1.0)):
+        s = Simulator(SHORT, Motor(0.3), b).run(0.005, save_every=1e-3).summary()
+        assert s.thrust_mean > 0
+
+
+def test_blow_up_is_reported_with_last_good_state(tmp_path):
+    p = Params(Filament(length=4.0, stretch_modulus=1e-3))
+    sim = Simulator(p, Motor(50.0), solver=SolverOptions(method="implicit", dt=1e-5))
+    out = tmp_path / "run.h5"
+    with pytest.raises(SimulationError, match="saved"):
+        sim.run(0.05, save_every=1e-4, output=out)
+    import h5py
+
+    with h5py.File(out) as f:
+        assert f.attrs["status"].startswith("failed")
+        assert np.all(np.isfinite(f["final_state"][()]))
+
+
+def test_output_file_is_self_describing(tmp_path):
+    out = tmp_path / "r.h5"
+    tr = Simulator(SHORT, Motor(0.2), seed=3).run(0.002, save_every=1e-3, output=out)
+    from flagellum.io import read_trajectory
+
+    d = read_trajectory(out)
+    assert d["attrs"]["status"] == "complete"
+    assert Params.from_dict(__import__("tomllib").loads(d["attrs"]["params_toml"])) == SHORT
+    assert len(d["t"]) == len(tr.t) == 3
+
+
+def test_bad_run_arguments():
+    sim = Simulator(SHORT, Motor(0.2))
+    with pytest.raises(ParameterError, match="save_every"):
+        sim.run(0.01, save_every=-1)
+    with pytest.raises(ParameterError, match="kT"):
+        Simulator(Params(SHORT.filament, __import__("flagellum").Fluid(kT=0.0)), thermal=True)
+    with pytest.raises(ParameterError, match="output"):
+        sim.run(0.01, output="/proc/forbidden/run.h5")
+
+
+def test_cli_simulate_json(tmp_path):
+    from click.testing import CliRunner
+
+    from flagellum.cli import main
+
+    r = CliRunner().invoke(main, ["simulate", "--torque", "0.3", "--time", "0.004", "--length", "4",
+                                  "--json", "--output", str(tmp_path / "x.h5")])
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    for k in ("thrust_mean", "thrust_std", "omega_mean", "chi_mean", "end_to_end_mean",
+              "end_to_end_std", "energy_final", "steps", "wall_seconds"):
+        assert k in d
+    r2 = CliRunner().invoke(main, ["info", str(tmp_path / "x.h5"), "--json"])
+    assert r2.exit_code == 0 and json.loads(r2.output)["records"] > 0

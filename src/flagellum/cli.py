@@ -183,16 +183,24 @@ def motor_boundary_from_cli(kwargs: dict):
 @click.option("--method", type=click.Choice(["cvode", "implicit"]), default=None,
               help="integrator (default: cvode, implicit for thermal runs)")
 @click.option("--rtol", type=float, default=1e-6, show_default=True, help="relative tolerance (cvode)")
-@click.option("--dt", type=float, default=2e-5, show_default=True, help="time step of the implicit scheme [s]")
+@click.option("--dt", type=float, default=5e-5, show_default=True, help="time step of the implicit scheme [s]")
 @click.option("--frame", default="auto", show_default=True,
               help="computational frame: auto (co-rotating), lab, or a rotation rate [rad/s]")
 @click.option("--output", "-o", type=click.Path(dir_okay=False), default=None, help="HDF5 trajectory file")
+@click.option("--checkpoint-every", type=float, default=None,
+              help="write records and a checkpoint every T simulated seconds (with --output)")
+@click.option("--resume", "resume_file", type=click.Path(dir_okay=False), default=None,
+              help="continue the run in this HDF5 file from its last checkpoint")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object (no progress bar)")
 def simulate(t_end, save_every, average_from, thermal, seed, method, rtol, dt, frame, output,
-             as_json, **kwargs):
+             checkpoint_every, resume_file, as_json, **kwargs):
     """Simulate the motor-driven filament and report time-averaged observables."""
     from .simulator import Simulator, SolverOptions
 
+    if resume_file is not None:
+        sim, traj = Simulator.resume(resume_file, progress=False if as_json else None)
+        _report_run(sim, traj, average_from, resume_file, as_json)
+        return
     thermal = thermal or kwargs.get("kT") is not None
     params = params_from_cli(kwargs)
     motor, boundary = motor_boundary_from_cli(kwargs)
@@ -204,10 +212,15 @@ def simulate(t_end, save_every, average_from, thermal, seed, method, rtol, dt, f
                            atol=rtol * 1e-2, dt=dt, frame=frame)
     sim = Simulator(params, motor, boundary, thermal=thermal, seed=seed, solver=solver)
     traj = sim.run(t_end, save_every=save_every if save_every is not None else t_end / 300,
-                   output=output, progress=not as_json and None)
+                   output=output, progress=False if as_json else None,
+                   checkpoint_every=checkpoint_every)
+    _report_run(sim, traj, average_from, output, as_json)
+
+
+def _report_run(sim, traj, average_from, output, as_json):
     out = {**traj.summary(average_from).to_dict(), "steps": sim.steps,
-           "wall_seconds": sim.wall_seconds, "torque": motor.final_torque,
-           "segments": params.filament.n_segments}
+           "wall_seconds": sim.wall_seconds, "torque": sim.motor.final_torque,
+           "segments": sim.params.filament.n_segments}
     if output:
         out["output"] = str(output)
     if as_json:
@@ -231,6 +244,25 @@ def info(file, as_json):
     else:
         for k, v in attrs.items():
             click.echo(f"{k}:" + ("\n  " + str(v).replace("\n", "\n  ") if "\n" in str(v) else f" {v}"))
+
+
+@main.command()
+@click.option("--quick", is_flag=True, help="shorter windows (a rough number in seconds)")
+@click.option("--window", type=float, default=0.2, show_default=True,
+              help="simulated time of the steady-state window [s]")
+@click.option("--json", "as_json", is_flag=True, help="print one JSON object")
+def bench(quick, window, as_json):
+    """Speed benchmarks: wall seconds per simulated second, scaling with N, Brownian."""
+    from .bench import bench as run_bench
+    from .params import positive
+
+    out = run_bench(positive("window", window, 10.0), quick=quick)
+    if as_json:
+        emit_json(out)
+    else:
+        emit_table({k: v for k, v in out.items() if k != "scaling"}, "flagellum bench")
+        for row in out["scaling"]:
+            click.echo("  " + ", ".join(f"{k} {_fmt(v)}" for k, v in row.items()))
 
 
 def _register_optional():

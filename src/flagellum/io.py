@@ -49,6 +49,7 @@ RECORD_FIELDS = {
     "thrust": (lambda n: (), "f8"),
     "anchor_force": (lambda n: (3,), "f8"),
     "motor_speed": (lambda n: (), "f8"),
+    "motor_angle": (lambda n: (), "f8"),
     "torque": (lambda n: (), "f8"),
     "energy": (lambda n: (), "f8"),
     "frame_angle": (lambda n: (), "f8"),

@@ -15,6 +15,7 @@ Example
 
 from __future__ import annotations
 
+import json
 import math
 import sys
 import time
@@ -30,7 +31,6 @@ from .helix import DiscreteHelix, discrete_helix, rotation_between
 from .hydro import rft
 from .motor import Boundary, Motor
 from .params import Params, check_choice, check_range, positive
-from .rod import kernels as K
 from .rod.model import RodModel, angles, positions
 
 MAX_STRAIN = 0.5  #: a bond stretched or compressed by more than this is a blow-up
@@ -51,7 +51,7 @@ class SolverOptions:
     method: str = "cvode"
     rtol: float = 1e-6
     atol: float = 1e-8
-    dt: float = 2e-5
+    dt: float = 5e-5
     frame: str | float = "auto"
 
     def __post_init__(self):
@@ -109,7 +109,7 @@ class Trajectory:
         return self.records["positions"]
 
     def summary(self, t_from: float | None = None) -> Summary:
-        return summarize(self.t, self.thrust, self.motor_speed, self.positions, self.energy,
+        return summarize(self.t, self.thrust, self.motor_angle, self.positions, self.energy,
                          self.meta.get("helix_radius", 0.2), t_from)
 
 
@@ -156,9 +156,9 @@ class Simulator:
     def metadata(self) -> dict:
         from .helix import Helix
 
-        return {"params_toml": self.params.to_toml(),
-                "motor": repr(asdict(self.motor)), "boundary": repr(asdict(self.boundary)),
-                "solver": repr(asdict(self.solver)), "thermal": self.thermal, "seed": self.seed,
+        return {"params_toml": self.params.to_toml(), "spec": json.dumps(self.spec()),
+                "motor": json.dumps(asdict(self.motor)), "boundary": json.dumps(asdict(self.boundary)),
+                "solver": json.dumps(asdict(self.solver)), "thermal": self.thermal, "seed": self.seed,
                 "helix_radius": Helix.from_filament(self.params.filament).radius,
                 "segments": self.model.n, **io.provenance()}
 
@@ -172,7 +172,7 @@ class Simulator:
 
         return ImplicitStepper(self.model, self.t, self.y, self.solver.dt,
                                kT=self.params.fluid.kT if self.thermal else 0.0,
-                               seed=self.seed, rng_state=self._rng_state)
+                               seed=self.seed, rng_state=self._rng_state, jac_every=3)
 
     def _record(self, buf: dict) -> None:
         m, y, t = self.model, self.y, self.t
@@ -183,7 +183,8 @@ class Simulator:
         force = rot @ m.last_force
         for k, v in (("t", t), ("positions", positions(y) @ rot.T), ("angles", angles(y)),
                      ("hook_tangent", rot @ u), ("thrust", force[2]), ("anchor_force", force),
-                     ("motor_speed", m.last_motor_speed), ("torque", m.motor(t)),
+                     ("motor_speed", m.last_motor_speed),
+                     ("motor_angle", y[6] + self.frame_angle), ("torque", m.motor(t)),
                      ("energy", m.last_energy), ("frame_angle", self.frame_angle)):
             buf[k].append(np.array(v, float))
 
@@ -200,9 +201,11 @@ class Simulator:
             progress: bool | None = None, checkpoint_every: float | None = None) -> Trajectory:
         """Integrate from the current time to ``t_end`` [s], saving every ``save_every`` s.
 
-        With ``output`` the records stream to a chunked HDF5 file (written at each
-        checkpoint, by default every 1000 records), so memory stays bounded; the returned
-        :class:`Trajectory` then holds the whole run read back from the file.
+        With ``output`` the records stream to a chunked HDF5 file, written at each checkpoint
+        (every ``checkpoint_every`` simulated seconds, by default every 1000 records) together
+        with an atomically replaced checkpoint ``<output>.ckpt``, so memory stays bounded and
+        a killed run can be continued with :meth:`resume`; the returned :class:`Trajectory`
+        then holds the whole run read back from the file.
         A blow-up raises :class:`SimulationError` after saving the last good state.
         """
         t_end = check_range("time", t_end, self.t, 1e6)
@@ -210,27 +213,41 @@ class Simulator:
                               else (t_end - self.t) / 200, t_end - self.t)
         if checkpoint_every is not None:
             checkpoint_every = positive("checkpoint_every", checkpoint_every, 1e6)
-        meta = self.metadata()
+        flush_every = max(1, int(round(checkpoint_every / save_every))) if checkpoint_every else 1000
+        plan = {"t0": self.t, "t_end": t_end, "save_every": save_every, "flush_every": flush_every}
         if output is not None:
             output = Path(output)
             _check_writable(output)
-            io.create_trajectory(output, self.model.n, meta)
-        if progress is None:
-            progress = sys.stderr.isatty()
-        n_save = int(math.floor((t_end - self.t) / save_every + 1e-9))
-        times = self.t + save_every * np.arange(1, n_save + 1)
+            io.create_trajectory(output, self.model.n, self.metadata())
+        return self._loop(plan, 0, output, progress)
+
+    @staticmethod
+    def _times(plan) -> np.ndarray:
+        t0, t_end, dt = plan["t0"], plan["t_end"], plan["save_every"]
+        n_save = int(math.floor((t_end - t0) / dt + 1e-9))
+        times = t0 + dt * np.arange(1, n_save + 1)
         if len(times) == 0 or times[-1] < t_end - 1e-12:
             times = np.append(times, t_end)
+        return times
+
+    def _loop(self, plan: dict, start: int, output: Path | None, progress) -> Trajectory:
+        times = self._times(plan)
+        flush_every = plan["flush_every"]
+        if progress is None:
+            progress = sys.stderr.isatty()
         buf = {k: [] for k in io.RECORD_FIELDS}
         all_buf = {k: [] for k in io.RECORD_FIELDS} if output is None else None
-        flush_every = max(1, int(round(checkpoint_every / save_every))) if checkpoint_every else 1000
-        self._record(buf)
+        if start == 0:
+            self._record(buf)
         stepper = self._stepper()
         bar = _progress(len(times), progress)
+        if bar is not None:
+            bar.update(start)
         wall0 = time.perf_counter()
         good = (self.t, self.y.copy(), self.frame_angle)
         try:
-            for i, tk in enumerate(times):
+            for i in range(start, len(times)):
+                tk = times[i]
                 y = stepper.advance(tk)
                 self._check(y)
                 self.frame_angle += self.model.omega_frame * (tk - self.t)
@@ -239,12 +256,15 @@ class Simulator:
                 self._record(buf)
                 changed = self.model.rechart(self.y)
                 changed |= self._adapt_frame(buf)
-                if changed:
-                    stepper.reset(self.t, self.y)
                 if bar is not None:
                     bar.update(1)
-                if (i + 1) % flush_every == 0:
+                if (i + 1) % flush_every == 0 and i + 1 < len(times):
                     self._flush(buf, all_buf, output, stepper)
+                    if output is not None:
+                        self._checkpoint(output, plan, i + 1, wall0)
+                    changed = True  # restart the integrator at checkpoints (resume = identical)
+                if changed:
+                    stepper.reset(self.t, self.y)
         except SimulationError as exc:
             self.t, self.y, self.frame_angle = good
             self._flush(buf, all_buf, output, stepper)
@@ -253,7 +273,6 @@ class Simulator:
                 raise SimulationError(f"{exc}; last good state (t = {self.t:.6g} s) saved to {output}")
             raise
         except KeyboardInterrupt:
-            self._flush(buf, all_buf, output, stepper)
             if output is not None:
                 io.write_datasets(output, {"final_state": self.y}, {"status": "interrupted"})
             raise
@@ -267,9 +286,82 @@ class Simulator:
             io.write_datasets(output, {"final_state": self.y},
                               {"status": "complete", "wall_seconds": self.wall_seconds,
                                "steps": self.steps})
+            ckpt = checkpoint_path(output)
+            if ckpt.exists():
+                ckpt.unlink()
             data = io.read_trajectory(output)
-            return Trajectory({k: data[k] for k in io.RECORD_FIELDS}, meta)
-        return Trajectory({k: np.array(v) for k, v in all_buf.items()}, meta)
+            return Trajectory({k: data[k] for k in io.RECORD_FIELDS}, self.metadata())
+        return Trajectory({k: np.array(v) for k, v in all_buf.items()}, self.metadata())
+
+    # -- checkpoints ----------------------------------------------------------------------
+    def _checkpoint(self, output: Path, plan: dict, n_done: int, wall0: float) -> None:
+        import h5py
+
+        n_records = n_done + 1  # the initial record
+        with io.atomic_path(checkpoint_path(output)) as tmp:
+            with h5py.File(tmp, "w") as f:
+                f["y"] = self.y
+                f["ref_u"], f["ref_e"] = self.model.charts()
+                f.attrs.update({"t": self.t, "frame_angle": self.frame_angle,
+                                "omega_frame": self.model.omega_frame, "n_done": n_done,
+                                "n_records": n_records, "plan": json.dumps(plan),
+                                "rng_state": json.dumps(self._rng_state),
+                                "wall_seconds": self.wall_seconds + time.perf_counter() - wall0,
+                                "spec": json.dumps(self.spec())})
+
+    def spec(self) -> dict:
+        """Everything needed to rebuild this simulator (JSON-serializable)."""
+        return {"params": self.params.to_dict(), "motor": asdict(self.motor),
+                "boundary": asdict(self.boundary), "solver": asdict(self.solver),
+                "thermal": self.thermal, "seed": self.seed}
+
+    @classmethod
+    def from_spec(cls, spec: dict) -> "Simulator":
+        motor = dict(spec["motor"])
+        if motor.get("schedule") is not None:
+            motor["schedule"] = tuple(tuple(x) for x in motor["schedule"])
+        return cls(Params.from_dict(spec["params"]), Motor(**motor), Boundary(**spec["boundary"]),
+                   thermal=spec["thermal"], seed=spec["seed"], solver=SolverOptions(**spec["solver"]))
+
+    @classmethod
+    def resume(cls, output: str | Path, progress: bool | None = None) -> tuple["Simulator", Trajectory]:
+        """Continue a run from its last checkpoint ``<output>.ckpt``; returns (simulator, trajectory).
+
+        The continued run restarts the integrator exactly where the uninterrupted run did,
+        with the same random stream, so the final file is identical (deterministic runs
+        bit-for-bit).
+        """
+        import h5py
+
+        output = Path(output)
+        ckpt = checkpoint_path(output)
+        if not ckpt.exists():
+            data = io.read_trajectory(output)
+            if str(data["attrs"].get("status", "")) == "complete":
+                sim = cls.from_spec(json.loads(data["attrs"]["spec"]))
+                sim.wall_seconds = float(data["attrs"].get("wall_seconds", 0.0))
+                sim.steps = int(data["attrs"].get("steps", 0))
+                return sim, Trajectory({k: data[k] for k in io.RECORD_FIELDS}, sim.metadata())
+            raise ParameterError("resume", str(output), "a run with a checkpoint file "
+                                 f"{ckpt.name} (none found; the run stopped before its first checkpoint)")
+        try:
+            with h5py.File(ckpt, "r") as f:
+                a = dict(f.attrs)
+                y, ref_u, ref_e = f["y"][()], f["ref_u"][()], f["ref_e"][()]
+        except (OSError, KeyError) as exc:
+            raise ParameterError("resume", str(ckpt), f"a readable checkpoint ({exc})")
+        sim = cls.from_spec(json.loads(a["spec"]))
+        sim.t, sim.y, sim.frame_angle = float(a["t"]), y, float(a["frame_angle"])
+        sim.model.set_omega_frame(float(a["omega_frame"]))
+        sim.model.set_charts(ref_u, ref_e)
+        rng = json.loads(a["rng_state"])
+        sim._rng_state = rng
+        sim.wall_seconds = float(a["wall_seconds"])
+        io.append_records(output, {k: np.zeros((0,) + tuple(sh(sim.model.n)))
+                                   for k, (sh, _) in io.RECORD_FIELDS.items()},
+                          keep=int(a["n_records"]))
+        plan = json.loads(a["plan"])
+        return sim, sim._loop(plan, int(a["n_done"]), output, progress)
 
     def _flush(self, buf, all_buf, output, stepper):
         if all_buf is not None:
@@ -283,15 +375,22 @@ class Simulator:
 
     def _adapt_frame(self, buf) -> bool:
         """Co-rotating frame: follow the motor speed once it has settled (frame='auto')."""
-        if self.solver.frame != "auto" or len(buf["motor_speed"]) < 4:
+        if self.solver.frame != "auto" or len(buf["motor_angle"]) < 5:
             return False
-        target = float(np.mean(buf["motor_speed"][-4:]))
-        spread = float(np.ptp(buf["motor_speed"][-4:]))
+        t = np.array(buf["t"][-5:])
+        rates = np.diff(np.array(buf["motor_angle"][-5:])) / np.diff(t)
+        target = float(np.mean(rates))
+        spread = float(np.ptp(rates))
         cur = self.model.omega_frame
         if spread < 0.02 * abs(target) + 1.0 and abs(target - cur) > 0.01 * abs(cur) + 1.0:
             self.model.set_omega_frame(target)
             return True
         return False
+
+
+def checkpoint_path(output: str | Path) -> Path:
+    output = Path(output)
+    return output.with_name(output.name + ".ckpt")
 
 
 def _check_writable(path: Path) -> None:

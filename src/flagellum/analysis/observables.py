@@ -1,7 +1,8 @@
 """Observables of a trajectory (paper §3.1–3.2).
 
 * thrust F: force of the filament on its anchor along e_z (on the load sphere when attached),
-* ω: motor speed, the rotation rate of the hook frame about the motor axis,
+* ω: motor speed, the mean rotation rate of the hook frame (slope of its accumulated
+  material angle, robust to thermal noise and to sparse sampling),
 * χ: precession rate of the filament as a whole about the motor axis (azimuthal rate of its
   centroid; zero when the centroid stays on the axis, as in the aligned state),
 * r(t) = |r_N − r_0|, ⟨r⟩ and σ (eqs. 9–10), σ in units of σ0 = R/√2,
@@ -35,6 +36,10 @@ def precession_rate(t: np.ndarray, positions: np.ndarray, min_offset: float) -> 
     if len(t) < 2 or rho.mean() < min_offset:
         return 0.0, float(rho.mean()) if len(rho) else math.nan
     return unwrapped_rate(t, np.arctan2(c[:, 1], c[:, 0])), float(rho.mean())
+
+
+def _slope(t, x) -> float:
+    return float(np.polyfit(t, x, 1)[0]) if len(t) > 1 else math.nan
 
 
 def block_average(x: np.ndarray, n_blocks: int = 8) -> tuple[float, float]:
@@ -80,7 +85,7 @@ class Summary:
         return asdict(self)
 
 
-def summarize(t, thrust, motor_speed, positions, energy, helix_radius: float,
+def summarize(t, thrust, motor_angle, positions, energy, helix_radius: float,
               t_from: float | None = None) -> Summary:
     """Averages over t ≥ t_from (default: the last half of the run)."""
     t = np.asarray(t, float)
@@ -95,7 +100,7 @@ def summarize(t, thrust, motor_speed, positions, energy, helix_radius: float,
     m, err = block_average(th)
     chi, rho = precession_rate(t[sel], np.asarray(positions)[sel], 0.25 * helix_radius)
     return Summary(thrust_mean=m, thrust_std=float(th.std()), thrust_err=err,
-                   omega_mean=float(np.mean(np.asarray(motor_speed)[sel])), chi_mean=chi,
+                   omega_mean=_slope(t[sel], np.asarray(motor_angle)[sel]), chi_mean=chi,
                    end_to_end_mean=float(r.mean()), end_to_end_std=float(r.std()),
                    energy_final=float(np.asarray(energy)[-1]), centroid_offset=rho,
                    t_from=float(t_from), t_end=float(t[-1]), samples=int(sel.sum()))

@@ -91,7 +91,7 @@ def _mobility(y, prm, iprm, ref_u, ref_e, ext_f, ext_m, ext_h, ws, out, gen):
 
 @njit(cache=True)
 def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, kT, torques, normals,
-                   ws, ab, ipiv, jac_age, jac_every, work, tol, max_iter):
+                   ws, ab, ipiv, jac_age, jac_every, work, tol, max_iter, slow=0.3):
     """Advance y in place by ``n_steps`` drift-implicit θ-method steps of size ``dt``.
 
     y_{n+1} = y_n + Δt [θ f(y_{n+1}) + (1 − θ) f(y_n)] + noise; θ = 1 is implicit Euler
@@ -192,18 +192,20 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, kT, torque
             if err < tol:
                 converged = True
                 break
-            if err > 0.3 * prev:  # slow: switch to full Newton
+            if err > slow * prev:  # slow: switch to full Newton
                 jac_age = -1
             prev = err
         if not converged:
-            return 1, k, n_iter, n_jac, jac_age
+            y[:] = yn  # leave the state at the start of the failed step
+            return 1, k, n_iter, n_jac, -1
         nu = math.sqrt(y[0] * y[0] + y[1] * y[1] + y[2] * y[2])
         y[0] /= nu
         y[1] /= nu
         y[2] /= nu
         for i in range(ny):
             if not np.isfinite(y[i]):
-                return 2, k, n_iter, n_jac, jac_age
+                y[:] = yn
+                return 2, k, n_iter, n_jac, -1
         jac_age += 1
     return 0, n_steps, n_iter, n_jac, jac_age
 
@@ -224,6 +226,7 @@ class ImplicitStepper:
         self.dt = float(dt)
         self.kT = float(kT)
         self.theta = (0.5 if self.kT > 0 else 1.0) if theta is None else float(theta)
+        self.seed = int(seed)
         self.rng = np.random.Generator(np.random.PCG64(seed))
         if rng_state is not None:
             self.rng.bit_generator.state = rng_state
@@ -251,20 +254,44 @@ class ImplicitStepper:
             return self.y
         k = max(1, int(math.ceil(span / self.dt - 1e-9)))
         dt = span / k
-        m = self.model
         times = self.t + dt * np.arange(1, k + 1)
-        torques = np.array([m.motor(s) for s in times])
         normals = (self.rng.standard_normal((k, self._n_normals)) if self._n_normals
                    else np.zeros((k, 0)))
+        done = 0
+        while done < k:
+            n_ok = self._steps(self.t + done * dt, k - done, dt, times[done:], normals[done:])
+            done += n_ok
+            if done < k:  # step `done` failed: redo it as two half steps (Brownian bridge)
+                self._split_step(self.t + done * dt, dt, normals[done], depth=1)
+                done += 1
+        self.t = float(t)
+        return self.y
+
+    def _steps(self, t0, k, dt, times, normals) -> int:
+        m = self.model
+        torques = np.array([m.motor(s) for s in times])
         status, done, it, nj, self._jac_age = implicit_steps(
-            self.y, self.t, k, dt, self.theta, m.prm, m.iprm, m.ref_u, m.ref_e, self.kT, torques, normals,
-            m._ws, self._ab, self._ipiv, self._jac_age, self.jac_every, self._work, self.tol, 20)
+            self.y, t0, k, dt, self.theta, m.prm, m.iprm, m.ref_u, m.ref_e, self.kT, torques,
+            np.ascontiguousarray(normals), m._ws, self._ab, self._ipiv, self._jac_age,
+            self.jac_every, self._work, self.tol, 20)
         self.n_steps += done
         self.n_iter += it
         self.n_jac += nj
-        if status != 0:
-            what = "Newton iteration did not converge" if status == 1 else "non-finite state"
-            raise SimulationError(f"implicit step failed at t = {self.t + done * dt:.6g} s: {what}"
-                                  f" (try a smaller --dt)")
-        self.t = float(t)
-        return self.y
+        return done if status != 0 else k
+
+    def _split_step(self, t0, dt, g, depth):
+        """Two half steps whose noise increments add up to the failed step's (bridge)."""
+        if depth > 6:
+            raise SimulationError(f"implicit step failed at t = {t0:.6g} s even with the step "
+                                  f"divided by {2 ** (depth - 1)}: Newton iteration did not "
+                                  f"converge (the filament may have blown up; try a smaller --dt)")
+        h = dt / 2
+        if len(g):
+            extra = np.random.Generator(np.random.PCG64([self.seed, self.n_steps, depth])).standard_normal(len(g))
+            halves = ((g + extra) / math.sqrt(2), (g - extra) / math.sqrt(2))
+        else:
+            halves = (g, g)
+        for j, gj in enumerate(halves):
+            tj = t0 + j * h
+            if self._steps(tj, 1, h, np.array([tj + h]), gj[None, :]) != 1:
+                self._split_step(tj, h, gj, depth + 1)

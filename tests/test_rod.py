@@ -110,7 +110,7 @@ def test_rigid_motions_cost_nothing_and_gradient_rotates():
     R = rot_z(0.4) @ rot_x(1.1)
     m2 = _model()
     m2.initial_state()
-    m2.set_charts(m.ref_u @ R.T, m.ref_e @ R.T)
+    m2.set_charts(m.ref_u @ R.T, m.ref_e @ R.T, m.ref_m)
     y2 = y.copy()
     y2[:3] = R @ y[:3]
     p = positions(y) @ R.T + np.array([0.3, -2.0, 5.0])

@@ -266,11 +266,19 @@ def bench(quick, window, as_json):
 
 
 def _register_optional():
-    try:
-        from .theory.cli import theory
-    except ImportError:  # theory not installed in this build
-        return
-    main.add_command(theory)
+    """Commands that live next to their subject (theory, stability)."""
+    import importlib
+
+    for module, names in ((".theory.cli", ("theory",)), (".analysis.stability_cli", ("COMMANDS",))):
+        try:
+            mod = importlib.import_module(module, __package__)
+        except ImportError:  # not part of this build
+            continue
+        for name in names:
+            obj = getattr(mod, name, None)
+            for cmd in (obj if isinstance(obj, (list, tuple)) else [obj]):
+                if cmd is not None:
+                    main.add_command(cmd)
 
 
 _register_optional()

@@ -301,7 +301,7 @@ class Simulator:
         with io.atomic_path(checkpoint_path(output)) as tmp:
             with h5py.File(tmp, "w") as f:
                 f["y"] = self.y
-                f["ref_u"], f["ref_e"] = self.model.charts()
+                f["ref_u"], f["ref_e"], f["ref_m"] = self.model.charts()
                 f.attrs.update({"t": self.t, "frame_angle": self.frame_angle,
                                 "omega_frame": self.model.omega_frame, "n_done": n_done,
                                 "n_records": n_records, "plan": json.dumps(plan),
@@ -347,13 +347,13 @@ class Simulator:
         try:
             with h5py.File(ckpt, "r") as f:
                 a = dict(f.attrs)
-                y, ref_u, ref_e = f["y"][()], f["ref_u"][()], f["ref_e"][()]
+                y, charts = f["y"][()], (f["ref_u"][()], f["ref_e"][()], f["ref_m"][()])
         except (OSError, KeyError) as exc:
             raise ParameterError("resume", str(ckpt), f"a readable checkpoint ({exc})")
         sim = cls.from_spec(json.loads(a["spec"]))
         sim.t, sim.y, sim.frame_angle = float(a["t"]), y, float(a["frame_angle"])
         sim.model.set_omega_frame(float(a["omega_frame"]))
-        sim.model.set_charts(ref_u, ref_e)
+        sim.model.set_charts(*charts)
         rng = json.loads(a["rng_state"])
         sim._rng_state = rng
         sim.wall_seconds = float(a["wall_seconds"])

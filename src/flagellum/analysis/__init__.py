@@ -1,0 +1,1 @@
+"""Analysis: observables of trajectories and the linear stability of the aligned state."""

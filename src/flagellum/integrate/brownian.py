@@ -79,18 +79,61 @@ def thermal_forces(y, prm, iprm, ref_u, ref_e, kT, dt, g_f, g_m, g_h, ws, xi_f, 
 
 
 @njit(cache=True)
-def _mobility(y, prm, iprm, ref_u, ref_e, ext_f, ext_m, ext_h, ws, out, gen):
+def _mobility(y, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_h, ws, out, gen):
     """out = M(y) applied to the given forces (no elastic forces, motor or frame rotation)."""
     el, om, tq, g0 = prm[K.P_ELASTIC], prm[K.P_OMEGA], prm[K.P_TORQUE], iprm[K.I_GEN]
     prm[K.P_ELASTIC] = 0.0
     prm[K.P_OMEGA] = 0.0
     iprm[K.I_GEN] = gen
-    K.rhs(y, out, prm, iprm, ref_u, ref_e, ext_f, ext_m, ext_h, ws)
+    K.rhs(y, out, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_h, ws)
     prm[K.P_ELASTIC], prm[K.P_OMEGA], prm[K.P_TORQUE], iprm[K.I_GEN] = el, om, tq, g0
 
 
 @njit(cache=True)
-def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, kT, torques, normals,
+def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, ym, f1, f2,
+                      zf, zm, zh, xi_f, xi_m, xi_h):
+    """b = Δt M(y) ξ + Δt kT ∂·M(y) (random finite difference) from the unit normals g."""
+    n1 = iprm[K.I_N] + 1
+    ny = y.shape[0]
+    o = 0
+    gf = g[o:o + 3 * n1].reshape((n1, 3))
+    o += 3 * n1
+    gm = g[o:o + n1]
+    o += n1
+    gh = g[o:o + 3]
+    o += 3
+    thermal_forces(y, prm, iprm, ref_u, ref_e, kT, dt, gf, gm, gh, ws, xi_f, xi_m, xi_h)
+    _mobility(y, prm, iprm, ref_u, ref_e, ref_m, xi_f, xi_m, xi_h, ws, f1, 0)
+    for i in range(ny):
+        b[i] = dt * f1[i]
+    wv = g[o:o + ny]
+    for i in range(n1):
+        for c in range(3):
+            zf[i, c] = wv[3 + 4 * i + c]
+        zm[i] = wv[6 + 4 * i]
+    if iprm[K.I_ANCHOR] == K.ANCHOR_FIXED:
+        zf[0, 0] = zf[0, 1] = zf[0, 2] = 0.0
+    elif iprm[K.I_ANCHOR] == K.ANCHOR_SPHERE:
+        zf[0, 0] = zf[0, 1] = 0.0
+    for i in range(ny):
+        yp[i] = y[i]
+        ym[i] = y[i]
+    for i in range(n1):
+        for c in range(3):
+            yp[3 + 4 * i + c] += 0.5 * RFD_DELTA * zf[i, c]
+            ym[3 + 4 * i + c] -= 0.5 * RFD_DELTA * zf[i, c]
+        yp[6 + 4 * i] += 0.5 * RFD_DELTA * zm[i]
+        ym[6 + 4 * i] -= 0.5 * RFD_DELTA * zm[i]
+    _mobility(yp, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1)
+    _mobility(ym, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1)
+    for i in range(ny):
+        b[i] += dt * kT / RFD_DELTA * (f1[i] - f2[i])
+    zf[:, :] = 0.0
+    zm[:] = 0.0
+
+
+@njit(cache=True)
+def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT, torques, normals,
                    ws, ab, ipiv, jac_age, jac_every, work, tol, max_iter, slow=0.3):
     """Advance y in place by ``n_steps`` drift-implicit θ-method steps of size ``dt``.
 
@@ -118,49 +161,18 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, kT, torque
     n_iter = 0
     n_jac = 0
     kv = KL + KU
+    T, E1, E2, LEN, S = ws[0], ws[1], ws[2], ws[3], ws[4]
     for k in range(n_steps):
+        # charts centred on the current tangents: the spin connection s vanishes at y_n, which
+        # decouples the angles from the stiff bead motions within the step
+        K.rechart_all(y, n, ref_u, ref_e, T, E1, E2, LEN, S)
         yn[:] = y
         b[:] = 0.0
         if kT > 0.0:
-            g = normals[k]
-            o = 0
-            gf = g[o:o + 3 * n1].reshape((n1, 3))
-            o += 3 * n1
-            gm = g[o:o + n1]
-            o += n1
-            gh = g[o:o + 3]
-            o += 3
-            thermal_forces(y, prm, iprm, ref_u, ref_e, kT, dt, gf, gm, gh, ws, xi_f, xi_m, xi_h)
-            _mobility(y, prm, iprm, ref_u, ref_e, xi_f, xi_m, xi_h, ws, f1, 0)
-            for i in range(ny):
-                b[i] = dt * f1[i]
-            # random finite difference for the Itô drift kT ∂·M
-            wv = g[o:o + ny]
-            for i in range(n1):
-                for c in range(3):
-                    zf[i, c] = wv[3 + 4 * i + c]
-                zm[i] = wv[6 + 4 * i]
-            if iprm[K.I_ANCHOR] == K.ANCHOR_FIXED:
-                zf[0, 0] = zf[0, 1] = zf[0, 2] = 0.0
-            elif iprm[K.I_ANCHOR] == K.ANCHOR_SPHERE:
-                zf[0, 0] = zf[0, 1] = 0.0
-            for i in range(ny):
-                yp[i] = y[i]
-                ym[i] = y[i]
-            for i in range(n1):
-                for c in range(3):
-                    yp[3 + 4 * i + c] += 0.5 * RFD_DELTA * zf[i, c]
-                    ym[3 + 4 * i + c] -= 0.5 * RFD_DELTA * zf[i, c]
-                yp[6 + 4 * i] += 0.5 * RFD_DELTA * zm[i]
-                ym[6 + 4 * i] -= 0.5 * RFD_DELTA * zm[i]
-            _mobility(yp, prm, iprm, ref_u, ref_e, zf, zm, zh, ws, f1, 1)
-            _mobility(ym, prm, iprm, ref_u, ref_e, zf, zm, zh, ws, f2, 1)
-            for i in range(ny):
-                b[i] += dt * kT / RFD_DELTA * (f1[i] - f2[i])
-            zf[:, :] = 0.0
-            zm[:] = 0.0
+            thermal_increment(y, dt, kT, normals[k], prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, ym,
+                              f1, f2, zf, zm, zh, xi_f, xi_m, xi_h)
         if theta < 1.0:
-            K.rhs(yn, fn, prm, iprm, ref_u, ref_e, zf, zm, zh, ws)
+            K.rhs(yn, fn, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
             for i in range(ny):
                 b[i] += (1.0 - theta) * dt * fn[i]
         prm[K.P_TORQUE] = torques[k]
@@ -168,9 +180,10 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, kT, torque
         converged = False
         prev = np.inf
         for it in range(max_iter):
-            if jac_age < 0 or jac_age >= jac_every:
-                K.rhs(y, f, prm, iprm, ref_u, ref_e, zf, zm, zh, ws)
-                K.band_jacobian(y, f, prm, iprm, ref_u, ref_e, zf, zm, zh, ws, KL, KU, ab,
+            fresh = jac_age < 0 or jac_age >= jac_every
+            if fresh:
+                K.rhs(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
+                K.band_jacobian(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, KL, KU, ab,
                                 -theta * dt, yw, fw)
                 for j in range(ny):
                     ab[j, kv] += 1.0
@@ -178,7 +191,7 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, kT, torque
                     return 1, k, n_iter, n_jac, -1
                 jac_age = 0
                 n_jac += 1
-            K.rhs(y, f, prm, iprm, ref_u, ref_e, zf, zm, zh, ws)
+            K.rhs(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
             for i in range(ny):
                 d[i] = -(y[i] - yn[i] - theta * dt * f[i] - b[i])
             band_solve(ab, KL, KU, ipiv, d)
@@ -192,9 +205,12 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, kT, torque
             if err < tol:
                 converged = True
                 break
-            if err > slow * prev:  # slow: switch to full Newton
+            if err > slow * prev and not fresh:  # stale Jacobian too slow: undo, refresh
+                for i in range(ny):
+                    y[i] -= d[i]
                 jac_age = -1
-            prev = err
+            else:
+                prev = err
         if not converged:
             y[:] = yn  # leave the state at the start of the failed step
             return 1, k, n_iter, n_jac, -1
@@ -271,7 +287,7 @@ class ImplicitStepper:
         m = self.model
         torques = np.array([m.motor(s) for s in times])
         status, done, it, nj, self._jac_age = implicit_steps(
-            self.y, t0, k, dt, self.theta, m.prm, m.iprm, m.ref_u, m.ref_e, self.kT, torques,
+            self.y, t0, k, dt, self.theta, m.prm, m.iprm, m.ref_u, m.ref_e, m.ref_m, self.kT, torques,
             np.ascontiguousarray(normals), m._ws, self._ab, self._ipiv, self._jac_age,
             self.jac_every, self._work, self.tol, 20)
         self.n_steps += done

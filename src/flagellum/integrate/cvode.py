@@ -63,7 +63,7 @@ class CvodeStepper:
     def _jac(self, t, y, yp, jj):
         m = self.model
         m.prm[K.P_TORQUE] = m.motor(t)
-        K.band_jacobian(y, yp, m.prm, m.iprm, m.ref_u, m.ref_e, m._zf, m._zm, m._zh, m._ws,
+        K.band_jacobian(y, yp, m.prm, m.iprm, m.ref_u, m.ref_e, m.ref_m, m._zf, m._zm, m._zh, m._ws,
                         KL, KU, self._ab, 1.0, self._yw, self._fw)
         _band_to_dense(self._ab, KL, KU, jj)
         self.n_jac += 1

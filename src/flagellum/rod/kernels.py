@@ -18,6 +18,8 @@ then bend about e3⁽ʲ⁾ × e3⁽ʲ⁺¹⁾): with c = t_a × t_b and φ the b
 
     h Ω1 = φ/sin φ · c·e1_b,   h Ω2 = φ/sin φ · c·e2_b,   h Ω3 = ψ = ∠(P_ab e1_a, e1_b),
 
+(ψ is accumulated as θ_b − θ_a plus the reference twist, i.e. not wrapped to (−π, π]),
+
 and E_j = h/2 [A Ω1² + A (Ω2 − κ0)² + C (Ω3 − τ0)²]; stretching K h/2 (|r_i − r_{i−1}|/h − 1)².
 
 Gradients are taken with the material frames *transported* in the variation (the
@@ -75,7 +77,7 @@ def frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S):
 
 
 @njit(cache=True)
-def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e,
+def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e, ref_m,
             T, E1, E2, LEN, S, GT, GTH):
     """Elastic energy; fills GT (n+1, 3) = ∂E/∂t at fixed material spin, GTH = ∂E/∂θ."""
     frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S)
@@ -101,13 +103,21 @@ def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e,
         e2x, e2y, e2z = E2[b, 0], E2[b, 1], E2[b, 2]
         k1 = f * (cx * e1x + cy * e1y + cz * e1z) / h
         k2 = f * (cx * e2x + cy * e2y + cz * e2z) / h
-        # twist ψ: angle from P(ta→tb) e1_a to e1_b about tb
-        vx, vy, vz = E1[a, 0], E1[a, 1], E1[a, 2]
+        # twist ψ = θ_b − θ_a + m, with m the angle from P(ta→tb) a1_a to a1_b about tb
+        # (reference vectors a1 = cos θ e1 − sin θ e2), taken on the branch nearest to the
+        # last known value ref_m[b]: ψ is never wrapped, so the energy has no cusp and a 2π
+        # twist costs what it should (no spurious twist slips).
+        tha, thb = y[6 + 4 * a], y[6 + 4 * b]
+        ca, sa, cb, sb = math.cos(tha), math.sin(tha), math.cos(thb), math.sin(thb)
+        vx, vy, vz = ca * E1[a, 0] - sa * E2[a, 0], ca * E1[a, 1] - sa * E2[a, 1], ca * E1[a, 2] - sa * E2[a, 2]
+        rx, ry, rz = cb * e1x - sb * e2x, cb * e1y - sb * e2y, cb * e1z - sb * e2z
         qx, qy, qz = _cross(cx, cy, cz, vx, vy, vz)
         cv = (cx * vx + cy * vy + cz * vz) / (1.0 + cosp)
         px, py, pz = cosp * vx + qx + cv * cx, cosp * vy + qy + cv * cy, cosp * vz + qz + cv * cz
-        wx, wy, wz = _cross(px, py, pz, e1x, e1y, e1z)
-        psi = math.atan2(wx * tbx + wy * tby + wz * tbz, px * e1x + py * e1y + pz * e1z)
+        wx, wy, wz = _cross(px, py, pz, rx, ry, rz)
+        mr = math.atan2(wx * tbx + wy * tby + wz * tbz, px * rx + py * ry + pz * rz)
+        mr += 2.0 * math.pi * math.floor((ref_m[b] - mr) / (2.0 * math.pi) + 0.5)
+        psi = thb - tha + mr
         d2 = k2 - kappa0
         d3 = psi / h - tau0
         energy += 0.5 * h * (A * (k1 * k1 + d2 * d2) + C * d3 * d3)
@@ -132,6 +142,37 @@ def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e,
         energy += hook_k * (1.0 + T[0, 2])
         GT[0, 2] += hook_k
     return energy
+
+
+@njit(cache=True)
+def rechart_all(y, n, ref_u, ref_e, T, E1, E2, LEN, S):
+    """Move every chart pole to its current tangent, keeping the reference vector a1 (and so
+    θ and the reference twists) unchanged: discrete time-parallel transport."""
+    frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S)
+    for i in range(n + 1):
+        th = y[6 + 4 * i]
+        c, s = math.cos(th), math.sin(th)
+        for k in range(3):
+            ref_u[i, k] = T[i, k]
+            ref_e[i, k] = c * E1[i, k] - s * E2[i, k]
+
+
+@njit(cache=True)
+def reference_twists(n, T, E1, E2, y, out):
+    """Raw reference twist m_b ∈ (−π, π] of every joint (a, b) (see :func:`elastic`)."""
+    for b in range(1, n + 1):
+        a = b - 1
+        tha, thb = y[6 + 4 * a], y[6 + 4 * b]
+        ca, sa, cb, sb = math.cos(tha), math.sin(tha), math.cos(thb), math.sin(thb)
+        vx, vy, vz = ca * E1[a, 0] - sa * E2[a, 0], ca * E1[a, 1] - sa * E2[a, 1], ca * E1[a, 2] - sa * E2[a, 2]
+        rx, ry, rz = cb * E1[b, 0] - sb * E2[b, 0], cb * E1[b, 1] - sb * E2[b, 1], cb * E1[b, 2] - sb * E2[b, 2]
+        cx, cy, cz = _cross(T[a, 0], T[a, 1], T[a, 2], T[b, 0], T[b, 1], T[b, 2])
+        cosp = T[a, 0] * T[b, 0] + T[a, 1] * T[b, 1] + T[a, 2] * T[b, 2]
+        qx, qy, qz = _cross(cx, cy, cz, vx, vy, vz)
+        cv = (cx * vx + cy * vy + cz * vz) / (1.0 + cosp)
+        px, py, pz = cosp * vx + qx + cv * cx, cosp * vy + qy + cv * cy, cosp * vz + qz + cv * cz
+        wx, wy, wz = _cross(px, py, pz, rx, ry, rz)
+        out[b] = math.atan2(wx * T[b, 0] + wy * T[b, 1] + wz * T[b, 2], px * rx + py * ry + pz * rz)
 
 
 @njit(cache=True)
@@ -170,7 +211,7 @@ def workspace(n):
 
 
 @njit(cache=True)
-def rhs(y, ydot, prm, iprm, ref_u, ref_e, ext_f, ext_m, ext_hook, ws):
+def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
     """Overdamped RFT dynamics (paper eqs. 5–6 and the hook balance of §2.3).
 
     Lab-frame velocities from [γ∥ tt + γ⊥(1 − tt)] w v = f (w = h, end beads h/2, t the
@@ -190,7 +231,7 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ext_f, ext_m, ext_hook, ws):
     omega_frame = prm[P_OMEGA]
     T, E1, E2, LEN, S, GT, GTH, DR, V = ws
     energy = elastic(y, n, h, prm[P_A], prm[P_C], prm[P_K], prm[P_KAPPA], prm[P_TAU],
-                     prm[P_HOOKK], ref_u, ref_e, T, E1, E2, LEN, S, GT, GTH)
+                     prm[P_HOOKK], ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH)
     bead_gradient(n, h, prm[P_K], T, LEN, GT, DR)
     el = prm[P_ELASTIC]
     f0x, f0y, f0z = -DR[0, 0], -DR[0, 1], -DR[0, 2]
@@ -276,8 +317,8 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ext_f, ext_m, ext_hook, ws):
 
 
 @njit(cache=True)
-def band_jacobian(y, f0, prm, iprm, ref_u, ref_e, ext_f, ext_m, ext_hook, ws, kl, ku, ab,
-                  scale, y_work, f_work):
+def band_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl, ku,
+                  ab, scale, y_work, f_work):
     """Finite-difference Jacobian of :func:`rhs` into LU-ready band storage ``ab``.
 
     Columns j, j + w, j + 2w, … (w = kl + ku + 1) are perturbed together, so the cost is
@@ -291,7 +332,7 @@ def band_jacobian(y, f0, prm, iprm, ref_u, ref_e, ext_f, ext_m, ext_hook, ws, kl
         y_work[:] = y
         for j in range(g, n, w):
             y_work[j] += 1e-7 * max(1.0, abs(y[j]))
-        rhs(y_work, f_work, prm, iprm, ref_u, ref_e, ext_f, ext_m, ext_hook, ws)
+        rhs(y_work, f_work, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws)
         for j in range(g, n, w):
             inv = scale / (y_work[j] - y[j])
             for i in range(max(0, j - ku), min(n, j + kl + 1)):

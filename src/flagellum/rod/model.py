@@ -58,6 +58,7 @@ class RodModel:
         n1 = self.n + 1
         self.ref_u = np.zeros((n1, 3))
         self.ref_e = np.zeros((n1, 3))
+        self.ref_m = np.zeros(n1)  #: last known reference twist of each joint (branch of ψ)
         self._ws = K.workspace(self.n)
         self._zf = np.zeros((n1, 3))
         self._zm = np.zeros(n1)
@@ -91,7 +92,16 @@ class RodModel:
         body[:, :3] = pos
         self.ref_u[:] = frames[:, :, 2]
         self.ref_e[:] = frames[:, :, 0]
+        self.update_reference_twists(y)
         return y
+
+    def update_reference_twists(self, y: np.ndarray) -> None:
+        """Follow the branch of each joint's reference twist (call between steps)."""
+        T, E1, E2, L, S = self._ws[:5]
+        K.frames(y, self.n, self.ref_u, self.ref_e, T, E1, E2, L, S)
+        raw = np.zeros(self.n + 1)
+        K.reference_twists(self.n, T, E1, E2, y, raw)
+        self.ref_m[1:] = raw[1:] + 2 * np.pi * np.round((self.ref_m[1:] - raw[1:]) / (2 * np.pi))
 
     def rechart(self, y: np.ndarray, threshold: float = -0.5) -> bool:
         """Move chart poles that a tangent approaches the singularity of (t·u < threshold).
@@ -99,6 +109,7 @@ class RodModel:
         The new pole is the current tangent and the new reference vector the current
         reference a1, so the material frames and the state are unchanged.
         """
+        self.update_reference_twists(y)
         T, E1, E2, L, S = self._ws[:5]
         K.frames(y, self.n, self.ref_u, self.ref_e, T, E1, E2, L, S)
         bad = np.einsum("ij,ij->i", T, self.ref_u) < threshold
@@ -112,11 +123,15 @@ class RodModel:
         return True
 
     def charts(self):
-        return self.ref_u.copy(), self.ref_e.copy()
+        """(poles, reference vectors, reference twists): everything besides y that the
+        right-hand side depends on."""
+        return self.ref_u.copy(), self.ref_e.copy(), self.ref_m.copy()
 
-    def set_charts(self, ref_u, ref_e):
+    def set_charts(self, ref_u, ref_e, ref_m=None):
         self.ref_u[:] = ref_u
         self.ref_e[:] = ref_e
+        if ref_m is not None:
+            self.ref_m[:] = ref_m
 
     # -- physics ----------------------------------------------------------------------
     def _kernel_args(self):
@@ -126,7 +141,7 @@ class RodModel:
 
     def energy(self, y: np.ndarray) -> float:
         """Elastic energy [pN·µm] (bending, twist, stretching, hook)."""
-        return K.elastic(y, *self._kernel_args(), self.ref_u, self.ref_e, *self._ws[:7])
+        return K.elastic(y, *self._kernel_args(), self.ref_u, self.ref_e, self.ref_m, *self._ws[:7])
 
     def gradients(self, y: np.ndarray):
         """(E, ∂E/∂r (n+1,3), ∂E/∂θ (n+1), G_t (n+1,3)) with frames transported (gauge-free)."""
@@ -145,7 +160,7 @@ class RodModel:
         """dy/dt at time t (scipy's ``fun(t, y)``); optional thermal forces/torques."""
         ydot = np.empty_like(y) if out is None else out
         self.prm[K.P_TORQUE] = self.motor(t)
-        res = K.rhs(y, ydot, self.prm, self.iprm, self.ref_u, self.ref_e,
+        res = K.rhs(y, ydot, self.prm, self.iprm, self.ref_u, self.ref_e, self.ref_m,
                     self._zf if noise_f is None else noise_f,
                     self._zm if noise_m is None else noise_m, self._zh, self._ws)
         self.last_force[:] = res[1:4]

@@ -1,0 +1,16 @@
+"""Analytical buckling theory of the motor-driven helical filament (paper §4, App. A–C).
+
+* :mod:`.buckling` — the linearised buckling equations of the helical rod and their
+  critical values (shooting and Chebyshev collocation),
+* :mod:`.manifold` — the critical manifold, the plane of eq. (plane) and the critical
+  torque of the filament with a load sphere (Fig. 7, Fig. 6a),
+* :mod:`.rigid_helix` — precession of a rigid helix under a constant torque (App. B).
+"""
+
+from .buckling import (BucklingProblem, CriticalPoint, NoConvergenceError,
+                       TrivialSolutionError, characteristic, find_critical, solve, spectrum)
+from .manifold import HelicalRod, compute_manifold
+
+__all__ = ["BucklingProblem", "CriticalPoint", "NoConvergenceError", "TrivialSolutionError",
+           "characteristic", "find_critical", "solve", "spectrum", "HelicalRod",
+           "compute_manifold"]

@@ -1,0 +1,207 @@
+"""``flagellum theory …``: the analytical buckling theory on the command line.
+
+Subcommands: ``buckling`` (critical values of eq. lin buckling), ``manifold`` (Fig. 7 data
+and plot), ``rigid-helix`` (App. B) and ``effective-rigidity`` (App. C).
+"""
+
+from __future__ import annotations
+
+import math
+
+import click
+import numpy as np
+
+from .. import cli as _main
+from ..cli import emit_json, emit_table, param_options, params_from_cli
+from ..errors import ParameterError
+from ..params import check_real
+
+#: Helix geometries of App. C (Fig. 8): normal form (peritrichous) and monotrichous.
+GEOMETRIES = {"normal": (1.3, 2.1), "monotrichous": (2.2, 2.5)}
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+def theory():
+    """Analytical buckling theory of the helical rod (paper §4, App. B and C)."""
+
+
+def _floats(name: str, text: str | None):
+    if text is None:
+        return None
+    try:
+        return [float(x) for x in text.split(",")]
+    except ValueError:
+        raise ParameterError(name, text, "comma-separated numbers") from None
+
+
+def _count(name: str, value: int, lo: int, hi: int) -> int:
+    if not lo <= value <= hi:
+        raise ParameterError(name, value, f"an integer in [{lo}, {hi}]")
+    return value
+
+
+@theory.command()
+@click.option("--m-hat", type=float, default=0.0, show_default=True,
+              help="torque m̂ = M L0/A_eff (linear profile: applied at the base)")
+@click.option("--f-par", type=float, default=0.0, show_default=True,
+              help="compressive thrust f̂∥ = F L0²/A_eff (linear profile)")
+@click.option("--f-perp", type=float, default=0.0, show_default=True,
+              help="transverse friction f̂⊥ = a⊥ v L0³/A_eff")
+@click.option("--chi", type=float, default=0.0, show_default=True,
+              help="precession χ̂ = χ a⊥ L0⁴/A_eff")
+@click.option("--base", default="hinged", show_default=True, help="hinged | clamped")
+@click.option("--top", default="free", show_default=True, help="free | hinged | clamped")
+@click.option("--force-profile", default="linear", show_default=True,
+              help="linear (self-generated, paper) | uniform (end load)")
+@click.option("--torque-profile", default="linear", show_default=True,
+              help="linear (paper) | uniform (end torque)")
+@click.option("--solve", "unknowns", default="f_perp,chi", show_default=True,
+              help="one or two unknowns among m_hat, f_par, f_perp, chi")
+@click.option("--guess", default=None,
+              help="start values of the unknowns for Newton's method (comma-separated); "
+                   "default: global search (needs chi among the unknowns)")
+@click.option("--method", default="shooting", show_default=True, help="shooting | collocation")
+@click.option("--samples", type=int, default=21, show_default=True,
+              help="number of mode samples on z ∈ [0, 1]")
+@click.option("--json", "as_json", is_flag=True, help="print one JSON object")
+def buckling(m_hat, f_par, f_perp, chi, base, top, force_profile, torque_profile, unknowns,
+             guess, method, samples, as_json):
+    """Critical values of the linearised buckling equations (paper §4, eq. lin buckling)."""
+    from .buckling import BucklingProblem, solve
+
+    prob = BucklingProblem(m_hat, f_par, f_perp, chi, base, top, force_profile, torque_profile)
+    cp = solve(prob, unknowns, _floats("guess", guess), method=method)
+    mode = cp.mode(_count("samples", samples, 2, 10001))
+    out = {**cp.as_dict(), "mode": mode.as_dict()}
+    if as_json:
+        emit_json(out)
+    else:
+        emit_table({k: v for k, v in out.items() if k != "mode"},
+                   "Critical point of eq. (lin buckling) (dimensionless)")
+        click.echo("mode (z, X, Y):")
+        for z, x, y in zip(mode.z, mode.X, mode.Y):
+            click.echo(f"  {z:6.3f} {x: .6f} {y: .6f}")
+
+
+@theory.command()
+@param_options
+@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="flagellum-theory",
+              show_default=True, help="output directory for CSV, JSON and PNG")
+@click.option("--m-max", type=float, default=20.0, show_default=True, help="largest m̂ of the grid")
+@click.option("--m-steps", type=int, default=41, show_default=True)
+@click.option("--f-par-max", type=float, default=120.0, show_default=True,
+              help="largest f̂∥ of the grid")
+@click.option("--f-par-steps", type=int, default=41, show_default=True)
+@click.option("--inv-a-max", type=float, default=5.0, show_default=True,
+              help="largest inverse sphere radius 1/a [1/µm]")
+@click.option("--inv-a-steps", type=int, default=21, show_default=True)
+@click.option("--base", default="hinged", show_default=True, help="hinged | clamped")
+@click.option("--workers", type=int, default=2, show_default=True, help="processes")
+@click.option("--json", "as_json", is_flag=True, help="print the summary as JSON")
+def manifold(out_dir, m_max, m_steps, f_par_max, f_par_steps, inv_a_max, inv_a_steps, base,
+             workers, as_json, **kwargs):
+    """Critical manifold, buckling curves, plane of eq. (plane) and M_c1(1/a) (Fig. 7)."""
+    from .buckling import BASES
+    from ..params import check_choice, check_range
+    from .manifold import compute_manifold, write_manifold
+
+    params = params_from_cli(kwargs)
+    check_choice("base", base, BASES)
+    grid = dict(
+        m_values=np.linspace(0, check_range("m_max", m_max, 0, 200), _count("m_steps", m_steps, 2, 1001)),
+        f_par_values=np.linspace(0, check_range("f_par_max", f_par_max, 0, 5000),
+                                 _count("f_par_steps", f_par_steps, 2, 1001)),
+        inv_a_values=np.linspace(0, check_range("inv_a_max", inv_a_max, 0, 1000),
+                                 _count("inv_a_steps", inv_a_steps, 1, 1001)))
+    result = compute_manifold(params, base=base, workers=_count("workers", workers, 1, 256), **grid)
+    paths = write_manifold(result, out_dir)
+    summary = {**result.summary(), "files": [str(p) for p in paths]}
+    if as_json:
+        emit_json(summary)
+    else:
+        rows = {"A_eff": result.rod.A_eff, "A_eff/L0": result.rod.torque_scale}
+        for key in ("without_radius_correction", "with_radius_correction"):
+            a = summary[key]["anchored"]
+            rows[f"anchored M_c1 [pN µm] ({key.replace('_', ' ')})"] = a["M"]
+            rows[f"anchored F_c1 [pN] ({key.replace('_', ' ')})"] = a["F"]
+        rows["time [s]"] = result.timings["total"]
+        rows["files"] = ", ".join(p.name for p in paths)
+        emit_table(rows, f"Critical manifold written to {out_dir}")
+
+
+@theory.command("rigid-helix")
+@param_options
+@click.option("--torque", type=float, default=1.0, show_default=True, help="|M| [pN µm]")
+@click.option("--tilt", type=float, default=30.0, show_default=True,
+              help="initial angle between helix axis and torque [deg]")
+@click.option("--time", "t_end", type=float, default=None,
+              help="duration [s] (default: two precession periods)")
+@click.option("--origin", default="center", show_default=True, help="center | end of the helix")
+@click.option("--json", "as_json", is_flag=True, help="print one JSON object")
+def rigid_helix(torque, tilt, t_end, origin, as_json, **kwargs):
+    """Precession of a rigid helix under a constant torque (App. B)."""
+    from ..helix import rot_x
+    from .rigid_helix import rotate, rotational_resistance
+
+    params = params_from_cli(kwargs)
+    torque, tilt = check_real("torque", torque), check_real("tilt", tilt)
+    if torque == 0:
+        raise ParameterError("torque", torque, "non-zero")
+    B = rotational_resistance(params, origin)
+    evals = np.linalg.eigvalsh(B)
+    b_perp = float(np.mean(evals[1:]))
+    predicted = abs(torque) / b_perp
+    t_end = 2 * 2 * math.pi / predicted if t_end is None else t_end
+    run = rotate(B, [0.0, 0.0, torque], t_end, R0=rot_x(math.radians(tilt)), n_out=2001)
+    m2, p = run.torque_squared, run.dissipation
+    out = {"B": B, "B_eigenvalues": evals, "torque": torque, "tilt_deg": tilt, "time": t_end,
+           "precession_rate": run.precession_rate(), "precession_rate_predicted": predicted,
+           "spin_rate_body": float(np.mean(run.omega_body[:, 2])),
+           "M2_relative_drift": float(np.ptp(m2) / m2[0]),
+           "P_relative_drift": float(np.ptp(p) / p[0])}
+    if as_json:
+        emit_json(out)
+    else:
+        emit_table({k: v for k, v in out.items() if k not in ("B", "B_eigenvalues")},
+                   "Rigid helix under constant torque (App. B; units pN, µm, s)")
+        click.echo("B eigenvalues [pN µm s]: " + ", ".join(f"{x:.6g}" for x in evals))
+
+
+def effective_rigidity_summary(params) -> dict:
+    """A_eff (App. C) and the Fig. 8 scales for ``params`` and for the two geometries."""
+    from .manifold import HelicalRod
+
+    def scales(p):
+        rod = HelicalRod.from_params(p)
+        A_perp = rod.a_perp * rod.L0   # whole filament, eq. (A.5)
+        return {"kappa0": p.filament.kappa0, "tau0": p.filament.tau0,
+                "pitch_angle_deg": math.degrees(rod.pitch_angle), "L0": rod.L0,
+                "A_eff": rod.A_eff, "A_eff_over_L0": rod.torque_scale, "A_perp": A_perp,
+                "torque_scale": rod.torque_scale,
+                "rate_scale": rod.A_eff / (rod.L0**3 * A_perp / 3)}
+
+    own = scales(params)
+    return {"A_eff": own["A_eff"], "A_eff_over_L0": own["A_eff_over_L0"], "filament": own,
+            **{name: scales(params.replace(kappa0=k, tau0=t))
+               for name, (k, t) in GEOMETRIES.items()}}
+
+
+@theory.command("effective-rigidity")
+@param_options
+@click.option("--json", "as_json", is_flag=True, help="print one JSON object")
+def effective_rigidity(as_json, **kwargs):
+    """Effective bending rigidity A_eff (App. C) and the master-curve scales of Fig. 8."""
+    out = effective_rigidity_summary(params_from_cli(kwargs))
+    if as_json:
+        emit_json(out)
+    else:
+        emit_table({k: v for k, v in out.items() if not isinstance(v, dict)},
+                   "Effective bending rigidity (App. C; units pN, µm, s)")
+        for name in ("filament", *GEOMETRIES):
+            emit_table(out[name], f"{name}:")
+
+
+# Registered by flagellum.cli on import; if this module was imported first, that import
+# ran into the half-initialised module, so register here.
+if "theory" not in _main.main.commands:
+    _main.main.add_command(theory)

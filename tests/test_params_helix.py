@@ -126,3 +126,10 @@ def test_discrete_helix_converges_like_h_squared():
 def test_discrete_helix_origin_on_axis():
     dh = discrete_helix(Filament(), origin="axis", axis=(0, 0, 1))
     assert np.allclose(np.hypot(dh.positions[:, 0], dh.positions[:, 1]), dh.radius)
+
+
+def test_straight_rod_geometry():
+    h = Helix(0.0, 0.0, 2.0)
+    assert h.radius == 0 and h.axial_length == pytest.approx(2.0) and h.n_turns == 0
+    dh = discrete_helix(Filament(kappa0=0.0, tau0=0.0, length=2.0))
+    assert np.allclose(dh.positions[:, :2], 0) and dh.axial_length == pytest.approx(2.0)

@@ -83,16 +83,16 @@ class Helix:
 
     @property
     def radius(self) -> float:
-        return self.curvature / self.wavenumber**2
+        return self.curvature / self.wavenumber**2 if self.curvature else 0.0
 
     @property
     def pitch(self) -> float:
-        return 2 * math.pi * abs(self.torsion) / self.wavenumber**2
+        return 2 * math.pi * abs(self.torsion) / self.wavenumber**2 if self.curvature else math.inf
 
     @property
     def pitch_angle(self) -> float:
         """α in radians, tan α = |τ|/κ (α = π/2 for a straight rod)."""
-        return math.atan2(abs(self.torsion), self.curvature)
+        return math.atan2(abs(self.torsion), self.curvature) if self.curvature else math.pi / 2
 
     @property
     def axial_length(self) -> float:
@@ -101,8 +101,8 @@ class Helix:
 
     @property
     def turn_length(self) -> float:
-        """Λ = 2πR/cos α: contour length of one turn."""
-        return 2 * math.pi / self.wavenumber
+        """Λ = 2πR/cos α: contour length of one turn (∞ for a straight rod)."""
+        return 2 * math.pi / self.wavenumber if self.curvature else math.inf
 
     @property
     def n_turns(self) -> float:

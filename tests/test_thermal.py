@@ -1,0 +1,56 @@
+"""Thermal noise: equipartition, tangent correlations, reproducible random stream."""
+
+import numpy as np
+import pytest
+
+from flagellum import Filament, Fluid, Params
+from flagellum.motor import Motor
+from flagellum.simulator import Simulator, SolverOptions
+
+KT = 4.1e-3
+
+
+def _run(params, t_end, dt, seed=3, every=4):
+    sim = Simulator(params, Motor(0.0), thermal=True, seed=seed,
+                    solver=SolverOptions(method="implicit", dt=dt))
+    return sim.run(t_end, save_every=every * dt, progress=False)
+
+
+def test_equipartition_of_the_discrete_rod():
+    """No motor: ⟨E⟩ = ½kT per quadratic mode. N joints × (2 bend + 1 twist) + N bonds
+    stretching = 4N modes (the remaining 3 are the free rotation about the anchor)."""
+    p = Params(Filament(length=2.0), Fluid(kT=KT))
+    n = p.filament.n_segments
+    tr = _run(p, 0.08, 5e-6)
+    e = tr.energy[len(tr.energy) // 5:]
+    blocks = np.array([b.mean() for b in np.array_split(e, 10)])
+    err = blocks.std(ddof=1) / np.sqrt(10)
+    assert e.mean() / (2 * n * KT) == pytest.approx(1.0, abs=max(0.05, 3 * err / (2 * n * KT)))
+    bonds = np.linalg.norm(np.diff(tr.positions[len(tr.t) // 5:], axis=1), axis=2)
+    stretch = 0.5 * p.filament.stretch_modulus * 0.2 * ((bonds / 0.2 - 1) ** 2).sum(1)
+    assert stretch.mean() / (0.5 * n * KT) == pytest.approx(1.0, abs=0.1)
+
+
+def test_same_seed_same_path_and_different_seed_differs():
+    p = Params(Filament(length=2.0), Fluid(kT=KT))
+    a = _run(p, 0.002, 5e-5, seed=1)
+    b = _run(p, 0.002, 5e-5, seed=1)
+    c = _run(p, 0.002, 5e-5, seed=2)
+    assert np.array_equal(a.positions, b.positions)
+    assert not np.allclose(a.positions, c.positions)
+
+
+def test_tangent_correlation_of_a_straight_filament():
+    """Straight rod, bending energy A/(2h) φ² per joint: ⟨t_i·t_{i+k}⟩ = exp(−k h kT/A)
+    (worm-like chain, persistence length A/kT), i.e. 1 − ⟨t_i·t_{i+k}⟩ ≈ k h kT/A."""
+    A = 3.5
+    p = Params(Filament(kappa0=0.0, tau0=0.0, bend_rigidity=A, twist_rigidity=A, length=2.0),
+               Fluid(kT=KT))
+    tr = _run(p, 0.05, 5e-6)
+    pos = tr.positions[len(tr.t) // 5:]
+    t = np.diff(pos, axis=1)
+    t /= np.linalg.norm(t, axis=2)[..., None]
+    h = 0.2
+    for k in (1, 3):
+        c = np.einsum("tij,tij->ti", t[:, :-k], t[:, k:]).mean()
+        assert (1 - c) == pytest.approx(1 - np.exp(-k * h * KT / A), rel=0.1)

@@ -88,8 +88,11 @@ class Filament:
     segment_length: float = 0.2  #: bond length h [µm]
 
     def __post_init__(self):
-        _set(self, "kappa0", check_range("kappa0", self.kappa0, 0.0, 1e3, lo_open=False))
-        _set(self, "tau0", check_range("tau0", self.tau0, 0.0, 1e3, lo_open=False))
+        for name in ("kappa0", "tau0"):
+            v = check_range(name, getattr(self, name), 0.0, 1e3, lo_open=False)
+            if 0 < v < 1e-6:
+                raise ParameterError(name, v, "0 or a finite number in [1e-06, 1000]")
+            _set(self, name, v)
         check_choice("handedness", self.handedness, ("right", "left"))
         _set(self, "bend_rigidity", positive("bend_rigidity", self.bend_rigidity, 1e6))
         _set(self, "twist_rigidity", positive("twist_rigidity", self.twist_rigidity, 1e6))
@@ -97,12 +100,12 @@ class Filament:
         _set(self, "length", positive("length", self.length, 1e4))
         h = positive("segment_length", self.segment_length, self.length / 3)
         n = self.length / h
+        if not n <= 100000:
+            raise ParameterError("segment_length", self.segment_length,
+                                 f"at least length/100000 = {self.length / 1e5:g}")
         if abs(n - round(n)) > 1e-6 * n or round(n) < 3:
             raise ParameterError("segment_length", self.segment_length,
                                  f"a divisor of length={self.length:g} giving at least 3 segments")
-        if round(n) > 100000:
-            raise ParameterError("segment_length", self.segment_length,
-                                 f"at least length/100000 = {self.length / 1e5:g}")
         _set(self, "segment_length", h)
         if self.kappa0 == 0 and self.tau0 == 0:
             pass  # straight rod is allowed

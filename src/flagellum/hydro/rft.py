@@ -170,13 +170,18 @@ def pinned_rotation(matrix: np.ndarray, helix_axis) -> PinnedRotation:
 
 def rft_summary(params, critical_force: float = 1.0) -> dict:
     """All RFT numbers of the foundation (used by ``flagellum rft``)."""
+    from ..errors import ParameterError
     from ..params import lighthill_friction
 
     fil, fluid = params.filament, params.fluid
+    if fil.kappa0 == 0:
+        raise ParameterError("kappa0", 0.0, "> 0 for rigid-helix RFT (a straight rod is no helix)")
+    if fil.tau0 == 0:
+        raise ParameterError("tau0", 0.0, "> 0 for rigid-helix RFT (a flat ring gives no thrust)")
     helix = Helix.from_filament(fil)
     gp, gn, gr = params.gammas
     coeffs = full_turn_coefficients(helix, gp, gn)
-    lh = lighthill_friction(fil, fluid) if fil.kappa0 > 0 else (math.nan,) * 3
+    lh = lighthill_friction(fil, fluid)
     pts, tan, w = helix_nodes(helix)
     pinned = pinned_rotation(resistance_matrix(pts - pts[0], tan, w, gp, gn, gr),
                              helix_axis=(0.0, 0.0, 1.0))

@@ -1,0 +1,108 @@
+"""Property-based: adversarial inputs end in a clear ParameterError (or a valid object),
+never a traceback; the CLI answers them with exit 2 and one line."""
+
+import math
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from flagellum import Filament, Fluid, Friction, ParameterError, Params
+from flagellum.cli import run
+from flagellum.motor import Boundary, Motor
+from flagellum.simulator import SolverOptions
+
+weird = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True), st.integers(-10**9, 10**9),
+    st.just(0), st.just(-0.0), st.just(1e308), st.just(-1e-308), st.text(max_size=5),
+    st.none(), st.booleans(), st.lists(st.floats(), max_size=2))
+
+FIELDS = {Filament: ["kappa0", "tau0", "handedness", "bend_rigidity", "twist_rigidity",
+                     "stretch_modulus", "length", "segment_length"],
+          Fluid: ["viscosity", "filament_radius", "kT"],
+          Motor: ["torque", "ramp_time"],
+          SolverOptions: ["rtol", "atol", "dt", "method", "frame"]}
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(cls=st.sampled_from(list(FIELDS)), data=st.data())
+def test_constructors_raise_parameter_error_or_succeed(cls, data):
+    name = data.draw(st.sampled_from(FIELDS[cls]))
+    value = data.draw(weird)
+    try:
+        obj = cls(**{name: value})
+    except ParameterError as exc:
+        assert name in str(exc) or "config" in str(exc)
+        return
+    v = getattr(obj, name)
+    assert not isinstance(v, float) or math.isfinite(v)
+
+
+@settings(max_examples=100, deadline=None)
+@given(anchor=weird | st.sampled_from(["fixed", "sphere"]), radius=weird,
+       hook=weird | st.sampled_from(["free", "elastic", "clamped"]), k=weird)
+def test_boundary(anchor, radius, hook, k):
+    try:
+        Boundary(anchor=anchor, sphere_radius=radius, hook=hook, hook_stiffness=k)
+    except ParameterError:
+        pass
+
+
+@settings(max_examples=60, deadline=None)
+@given(section=st.sampled_from(["filament", "fluid", "friction", "bogus"]),
+       key=st.text(max_size=8) | st.sampled_from(["length", "kT", "model"]), value=weird)
+def test_from_dict(section, key, value):
+    try:
+        Params.from_dict({section: {key: value}})
+    except ParameterError:
+        pass
+
+
+@settings(max_examples=40, deadline=None)
+@given(flag=st.sampled_from(["--length", "--kappa0", "--tau0", "--segment-length",
+                             "--bend-rigidity", "--viscosity", "--filament-radius", "--kT",
+                             "--critical-force", "--gamma-par"]),
+       value=st.sampled_from(["nan", "inf", "-inf", "-1", "0", "1e400", "abc", "", "1e-320",
+                              "3", "0.2"]))
+def test_cli_rft_exit_codes(flag, value):
+    import contextlib
+    import io
+
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = run(["rft", flag, value, "--json"])
+    assert code in (0, 2)
+    if code == 2:
+        lines = err.getvalue().strip().splitlines()
+        assert len(lines) == 1 and "Traceback" not in err.getvalue()
+
+
+def test_cli_malformed_config(tmp_path):
+    cfg = tmp_path / "c.toml"
+    for text in ("[filament\nlength=1", "[filament]\nlength = 'x'", "[nope]\na=1", "\x00\x01"):
+        cfg.write_text(text)
+        assert run(["rft", "--config", str(cfg)]) == 2
+
+
+def test_cli_corrupt_hdf5(tmp_path):
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(b"not an hdf5 file")
+    assert run(["info", str(bad)]) == 2
+    assert run(["simulate", "--resume", str(bad)]) == 2
+
+
+import pytest  # noqa: E402
+
+
+@pytest.mark.parametrize("args", [
+    ["--torque", "nan"], ["--torque", "1e9"], ["--time", "-1"], ["--time", "0"],
+    ["--sphere-radius", "-1"], ["--hook", "elastic"], ["--hook-stiffness", "-2"],
+    ["--dt", "0"], ["--frame", "sideways"], ["--rtol", "2"], ["--save-every", "-1"],
+    ["--seed", "-3", "--kT", "0.004"], ["--kT", "0", "--thermal"], ["--checkpoint-every", "0"],
+    ["--output", "/proc/none/x.h5"], ["--length", "0.3"],
+])
+def test_cli_simulate_bad_input(args, capsys, tmp_path):
+    code = run(["simulate", "--length", "2", "--time", "0.001", *args])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not list(tmp_path.iterdir())

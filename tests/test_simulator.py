@@ -135,3 +135,11 @@ def test_cli_simulate_json(tmp_path):
         assert k in d
     r2 = CliRunner().invoke(main, ["info", str(tmp_path / "x.h5"), "--json"])
     assert r2.exit_code == 0 and json.loads(r2.output)["records"] > 0
+
+
+def test_motor_speed_survives_sparse_sampling():
+    """Records several turns apart (ω Δt ≈ 17 rad) still give the motor speed."""
+    dense = Simulator(SHORT, Motor(0.5)).run(0.2, save_every=2e-4).summary().omega_mean
+    sparse = Simulator(SHORT, Motor(0.5)).run(0.2, save_every=1e-2).summary().omega_mean
+    assert dense > 0
+    assert sparse == pytest.approx(dense, rel=0.01)

@@ -149,6 +149,7 @@ class Simulator:
         self.frame_angle = 0.0
         self.y = self.model.initial_state(pinned_helix(self.params, self.boundary))
         self._rng_state = None
+        self._last_motor = None
         self.wall_seconds = 0.0
         self.steps = 0
 
@@ -184,9 +185,34 @@ class Simulator:
         for k, v in (("t", t), ("positions", positions(y) @ rot.T), ("angles", angles(y)),
                      ("hook_tangent", rot @ u), ("thrust", force[2]), ("anchor_force", force),
                      ("motor_speed", m.last_motor_speed),
-                     ("motor_angle", y[6] + self.frame_angle), ("torque", m.motor(t)),
+                     ("motor_angle", self._motor_angle()), ("torque", m.motor(t)),
                      ("energy", m.last_energy), ("frame_angle", self.frame_angle)):
             buf[k].append(np.array(v, float))
+
+    def _motor_angle(self) -> float:
+        """Accumulated rotation of the hook frame about e_z (lab), continuous in time.
+
+        The twist about z of the hook frame (swing–twist split of its rotation,
+        2 atan2(R10 − R01, 1 + tr R)) is defined modulo 2π; it is unwrapped against the
+        rotation predicted from the last measured rate (at first the frame rate), so records
+        may be several turns apart as long as the rate changes by less than π per interval.
+        """
+        T, E1, E2 = self.model._ws[0], self.model._ws[1], self.model._ws[2]
+        d = np.stack([E1[0], E2[0], T[0]], axis=1)  # frames at the state of the last rhs call
+        raw = 2.0 * math.atan2(d[1, 0] - d[0, 1], 1.0 + np.trace(d)) + self.frame_angle
+        last = self._last_motor
+        if last is None:
+            angle, rate = raw, self.model.omega_frame
+        else:
+            t0, raw0, angle0, rate0 = last
+            dt = self.t - t0
+            pred = rate0 * dt
+            angle = angle0 + pred + (raw - raw0 - pred + math.pi) % (2 * math.pi) - math.pi
+            rate = (angle - angle0) / dt if dt > 0 else rate0
+        if not self.thermal and self.model.omega_frame == 0.0 and last is None:
+            rate = self.model.last_motor_speed
+        self._last_motor = (self.t, raw, angle, rate)
+        return angle
 
     def _check(self, y: np.ndarray) -> None:
         if not np.all(np.isfinite(y)):
@@ -306,6 +332,7 @@ class Simulator:
                                 "omega_frame": self.model.omega_frame, "n_done": n_done,
                                 "n_records": n_records, "plan": json.dumps(plan),
                                 "rng_state": json.dumps(self._rng_state),
+                                "last_motor": json.dumps(self._last_motor),
                                 "wall_seconds": self.wall_seconds + time.perf_counter() - wall0,
                                 "spec": json.dumps(self.spec())})
 
@@ -354,8 +381,8 @@ class Simulator:
         sim.t, sim.y, sim.frame_angle = float(a["t"]), y, float(a["frame_angle"])
         sim.model.set_omega_frame(float(a["omega_frame"]))
         sim.model.set_charts(*charts)
-        rng = json.loads(a["rng_state"])
-        sim._rng_state = rng
+        sim._rng_state = json.loads(a["rng_state"])
+        sim._last_motor = tuple(json.loads(a["last_motor"]))
         sim.wall_seconds = float(a["wall_seconds"])
         io.append_records(output, {k: np.zeros((0,) + tuple(sh(sim.model.n)))
                                    for k, (sh, _) in io.RECORD_FIELDS.items()},

@@ -269,7 +269,7 @@ def _register_optional():
     """Commands that live next to their subject (theory, stability)."""
     import importlib
 
-    for module, names in ((".theory.cli", ("theory",)), (".analysis.stability_cli", ("COMMANDS",))):
+    for module, names in ((".theory.cli", ("theory",)), (".analysis.stability_cli", ("COMMANDS",)), (".sweep_cli", ("COMMANDS",)), (".reproduce.cli", ("COMMANDS",))):
         try:
             mod = importlib.import_module(module, __package__)
         except ImportError:  # not part of this build

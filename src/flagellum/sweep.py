@@ -1,0 +1,582 @@
+"""Parameter sweeps: a grid of independent simulations written to one labelled HDF5 dataset.
+
+A :class:`Sweep` is *fixed* parameters plus *ranges*, the axes of the grid (in order; the
+first axis varies slowest). Each grid point is one task, run by a local process pool
+(default) or on a ``dask.distributed`` cluster. Workers only compute and return a
+dictionary; the parent process alone writes the output: after every finished point the
+whole dataset is written to a temporary file that is renamed onto the output (atomic), so a
+killed sweep loses at most the points in flight. ``resume=True`` keeps the finished points
+(matched by :func:`point_key`, a stable key of the swept values) and computes only the
+others; the dataset is ordered by the grid, so a resumed sweep equals an uninterrupted one.
+
+File layout (HDF5, netCDF-4-like: coordinates are HDF5 dimension scales):
+
+* one 1-D dataset per swept parameter (the coordinates, named ``dims`` in the attributes),
+* one grid-shaped dataset per variable (:data:`VARIABLES`: the :class:`Summary` fields,
+  ``regime``, ``steps``, ``wall_seconds``, ``status``), plus ``key`` ("" = not finished),
+* attributes: each fixed parameter, ``fixed`` and ``dims`` (JSON), ``seeds``, ``version``,
+  ``git_revision``, ``host``, ``python``, ``created``.
+
+Example
+-------
+>>> sweep = Sweep.create({"torque": "-2:6:0.25"}, {"time": 0.3})     # doctest: +SKIP
+>>> run_sweep(sweep, "results.nc", resume=True)                       # doctest: +SKIP
+>>> read_sweep("results.nc").data["thrust_mean"]                      # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import itertools
+import json
+import logging
+import math
+import multiprocessing
+import os
+import sys
+import threading
+import time
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, fields
+from decimal import Decimal, InvalidOperation
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Mapping
+
+import numpy as np
+
+from . import io
+from .analysis.observables import Summary
+from .errors import FlagellumError, ParameterError
+from .params import Filament, Fluid, Params, positive, read_toml
+
+if TYPE_CHECKING:
+    from .motor import Boundary, Motor
+    from .simulator import SolverOptions
+
+#: Sweepable parameters and their types: the model parameters (as in ``Params.from_flat``),
+#: motor, boundary, run length and solver settings.
+_MODEL: dict[str, type] = {
+    **{f.name: (str if f.name == "handedness" else float) for k in (Filament, Fluid) for f in fields(k)},
+    "friction": str, "gamma_par": float, "gamma_perp": float, "gamma_rot": float,
+}
+PARAMETERS: dict[str, type] = {
+    **_MODEL, "torque": float, "ramp_time": float,
+    "anchor": str, "sphere_radius": float, "hook": str, "hook_stiffness": float,
+    "time": float, "save_every": float, "average_from": float,
+    "thermal": bool, "seed": int, "method": str, "rtol": float, "dt": float,
+}
+ALIASES = {"t_end": "time"}
+
+#: Per-point variables of the dataset and their storage kinds.
+VARIABLES: dict[str, str] = {
+    **{f.name: ("i8" if f.type in ("int", int) else "f8") for f in fields(Summary)},
+    "regime": "str", "steps": "i8", "wall_seconds": "f8", "status": "str",
+}
+_FILL = {"f8": math.nan, "i8": -1, "str": ""}
+FORMAT = "flagellum-sweep"
+MAX_POINTS = 1_000_000
+
+
+# -- parameter values -------------------------------------------------------------------
+
+
+def canonical_name(name: str) -> str:
+    """The parameter name as stored (``--sphere-radius`` → ``sphere_radius``, ``t_end`` → ``time``)."""
+    key = str(name).lstrip("-").replace("-", "_")
+    key = ALIASES.get(key, key)
+    if key not in PARAMETERS:
+        raise ParameterError("parameter", name, "a sweepable parameter (" + ", ".join(PARAMETERS) + ")")
+    return key
+
+
+def _convert(name: str, value: Any):
+    """One value of parameter ``name`` as its type (float, int, str, bool)."""
+    typ = PARAMETERS[name]
+    text = value.strip() if isinstance(value, str) else value
+    try:
+        if typ is str:
+            if not isinstance(text, str) or not text:
+                raise ValueError
+            return text
+        if typ is bool:
+            if isinstance(text, str) and text.lower() in ("true", "false"):
+                return text.lower() == "true"
+            if not isinstance(text, bool):
+                raise ValueError
+            return text
+        if isinstance(text, bool):
+            raise ValueError
+        if typ is int:
+            d = Decimal(text)
+            if not d.is_finite() or d != d.to_integral_value():
+                raise ValueError
+            return int(d)
+        v = float(text)
+        if not math.isfinite(v):
+            raise ValueError
+        return v
+    except (ValueError, TypeError, InvalidOperation):
+        kind = {float: "a finite number", int: "an integer", str: "a non-empty string",
+                bool: "true or false"}[typ]
+        raise ParameterError(name, value, kind) from None
+
+
+def _grid(name: str, text: str) -> list:
+    """Values of ``start:stop[:step]``; ``stop`` is included when it lies on the grid."""
+    parts = text.split(":")
+    try:
+        if len(parts) not in (2, 3) or PARAMETERS[name] not in (float, int):
+            raise InvalidOperation
+        start, stop, step = (Decimal(p.strip()) for p in parts + ["1"] * (3 - len(parts)))
+        if not all(x.is_finite() for x in (start, stop, step)) or step == 0 or (stop - start) * step < 0:
+            raise InvalidOperation
+        n = int((stop - start) / step) + 1
+    except (InvalidOperation, ArithmeticError):
+        raise ParameterError(name, text, "start:stop or start:stop:step of numbers, the step "
+                                         "nonzero and pointing from start to stop") from None
+    if n > MAX_POINTS:
+        raise ParameterError(name, text, f"a range of at most {MAX_POINTS} values")
+    return [_convert(name, start + i * step) for i in range(n)]
+
+
+def parse_values(name: str, spec: Any) -> tuple:
+    """Values of a parameter from ``"start:stop[:step]"``, ``"a,b,c"``, one value, or a list.
+
+    >>> len(parse_values("torque", "-2:6:0.25")), parse_values("seed", "1:3")
+    (33, (1, 2, 3))
+    """
+    name = canonical_name(name)
+    if isinstance(spec, str) and ":" in spec:
+        values = _grid(name, spec)
+    elif isinstance(spec, str):
+        values = [_convert(name, s) for s in spec.split(",")]
+    elif isinstance(spec, (list, tuple, np.ndarray)):
+        values = [_convert(name, s.item() if isinstance(s, np.generic) else s) for s in spec]
+    else:
+        values = [_convert(name, spec)]
+    if not values or len(set(values)) != len(values):
+        raise ParameterError(name, spec, "a non-empty list of distinct values")
+    return tuple(values)
+
+
+def point_key(point: Mapping) -> str:
+    """Stable key of a grid point: JSON of the swept values, names sorted (floats exact)."""
+    return json.dumps({k: point[k] for k in sorted(point)})
+
+
+# -- the sweep ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """Fixed parameters and the ranges (axes) of a grid; build with :meth:`create`."""
+
+    fixed: tuple[tuple[str, Any], ...] = ()
+    ranges: tuple[tuple[str, tuple], ...] = ()
+
+    @classmethod
+    def create(cls, ranges: Mapping | None = None, fixed: Mapping | None = None) -> "Sweep":
+        """Validate names and values; a range is a string (see :func:`parse_values`), a list
+        or one value (an axis of length 1)."""
+        rng = [(canonical_name(k), parse_values(k, v)) for k, v in (ranges or {}).items()]
+        fix = [(canonical_name(k), _convert(canonical_name(k), v)) for k, v in (fixed or {}).items()]
+        names = [n for n, _ in rng + fix]
+        dup = next((n for n in names if names.count(n) > 1), None)
+        if dup is not None:
+            raise ParameterError(dup, "given twice", "given once (as fixed or as a range)")
+        sweep = cls(tuple(fix), tuple(rng))
+        if sweep.size > MAX_POINTS:
+            raise ParameterError("sweep", f"{sweep.size} points", f"at most {MAX_POINTS} points")
+        thermal = dict(fix).get("thermal", "kT" in names or "thermal" in dict(rng))
+        if len(sweep.coords.get("seed", ())) > 1 and not thermal:
+            raise ParameterError("seed", sweep.coords["seed"],
+                                 "swept only in thermal runs (give kT or thermal = true)")
+        return sweep
+
+    @classmethod
+    def from_toml(cls, path: str | Path) -> "Sweep":
+        """Read a TOML file with a ``[fixed]`` and a ``[ranges]`` table (docs/sweeps.md)."""
+        data = read_toml(path)
+        for table, value in data.items():
+            if table not in ("fixed", "ranges") or not isinstance(value, dict):
+                raise ParameterError(f"config table [{table}]", value,
+                                     "a [fixed] or [ranges] table of name = value")
+        return cls.create(data.get("ranges"), data.get("fixed"))
+
+    def updated(self, ranges: Mapping | None = None, fixed: Mapping | None = None) -> "Sweep":
+        """Copy in which the given names (ranges or fixed) replace their old entries; a
+        replaced axis keeps its place, new axes come last."""
+        ranges = {canonical_name(n): v for n, v in (ranges or {}).items()}
+        fixed = {canonical_name(n): v for n, v in (fixed or {}).items()}
+        axes = {n: ranges.pop(n, v) for n, v in self.ranges if n not in fixed}
+        return Sweep.create({**axes, **ranges},
+                            {**{n: v for n, v in self.fixed if n not in ranges.keys() | axes.keys()},
+                             **fixed})
+
+    @property
+    def dims(self) -> tuple[str, ...]:
+        return tuple(n for n, _ in self.ranges)
+
+    @property
+    def coords(self) -> dict[str, tuple]:
+        return dict(self.ranges)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(len(v) for _, v in self.ranges)
+
+    @property
+    def size(self) -> int:
+        return math.prod(self.shape)
+
+    def points(self) -> list[dict]:
+        """Swept values of every grid point, in grid (C) order."""
+        return [dict(zip(self.dims, combo)) for combo in itertools.product(*(v for _, v in self.ranges))]
+
+    def values(self, point: Mapping) -> dict:
+        """All given parameters of a point: fixed ones and the point's swept values."""
+        return {**dict(self.fixed), **point}
+
+    @property
+    def seeds(self) -> list[int]:
+        return list(self.coords.get("seed", (dict(self.fixed).get("seed", 0),)))
+
+
+# -- one point ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PointRun:
+    """Everything one simulation of a sweep needs, validated (built cheaply in the parent)."""
+
+    params: Params
+    motor: Motor
+    boundary: Boundary
+    solver: SolverOptions
+    thermal: bool
+    seed: int
+    time: float
+    save_every: float
+    average_from: float | None
+
+    @classmethod
+    def from_values(cls, v: Mapping) -> "PointRun":
+        """Defaults as ``flagellum simulate``: time 0.3 s, save_every time/300, thermal with kT."""
+        from .motor import Boundary, Motor
+        from .simulator import SolverOptions
+
+        params = Params.from_flat({k: v[k] for k in _MODEL if k in v})
+        params.gammas  # noqa: B018 -- resolves (and so validates) the friction model
+        motor = Motor(**{k: v[k] for k in ("torque", "ramp_time") if k in v})
+        radius, k = v.get("sphere_radius"), v.get("hook_stiffness", 0.0)
+        boundary = Boundary(anchor=v.get("anchor", "fixed" if radius is None else "sphere"),
+                            sphere_radius=radius, hook=v.get("hook", "elastic" if k else "free"),
+                            hook_stiffness=k)
+        thermal = bool(v.get("thermal", "kT" in v))
+        solver = {"method": v.get("method", "implicit" if thermal else "cvode"),
+                  **({"rtol": v["rtol"], "atol": v["rtol"] * 1e-2} if "rtol" in v else {}),
+                  **({"dt": v["dt"]} if "dt" in v else {})}
+        t_end = positive("time", v.get("time", 0.3), 1e6)
+        save_every = positive("save_every", v.get("save_every", t_end / 300), t_end)
+        return cls(params, motor, boundary, SolverOptions(**solver), thermal, v.get("seed", 0),
+                   t_end, save_every, v.get("average_from"))
+
+    def simulate(self) -> dict:
+        """Run to ``time``; the summary fields, the regime and the integrator steps."""
+        from .analysis.regimes import classify
+        from .helix import Helix
+        from .simulator import Simulator
+
+        sim = Simulator(self.params, self.motor, self.boundary, thermal=self.thermal,
+                        seed=self.seed, solver=self.solver)
+        traj = sim.run(self.time, save_every=self.save_every, progress=False)
+        helix = Helix.from_filament(self.params.filament)
+        regime = classify(traj.t, traj.thrust, traj.positions, helix.radius, helix.axial_length,
+                          self.average_from)
+        return {**traj.summary(self.average_from).to_dict(), "regime": regime, "steps": sim.steps}
+
+
+def _one_line(exc: BaseException) -> str:
+    text = str(exc) if isinstance(exc, FlagellumError) else f"{type(exc).__name__}: {exc}"
+    return " ".join(text.split())[:500] or type(exc).__name__
+
+
+def run_point(values: Mapping) -> dict:
+    """Simulate one point (the task sent to workers); never raises, a failure is ``status``."""
+    t0 = time.perf_counter()
+    try:
+        out = {**PointRun.from_values(values).simulate(), "status": "ok"}
+    except Exception as exc:  # a failed point must not end the sweep
+        out = {"status": _one_line(exc)}
+    return {**out, "wall_seconds": time.perf_counter() - t0}
+
+
+# -- the dataset --------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SweepData:
+    """A sweep file read back: coordinates, grid-shaped variables (with ``key``), attributes."""
+
+    dims: tuple[str, ...]
+    coords: dict
+    data: dict
+    attrs: dict
+
+    @property
+    def finished(self) -> np.ndarray:
+        return self.data["key"] != ""
+
+    def to_xarray(self):
+        """As an ``xarray.Dataset`` (needs the optional xarray package)."""
+        import xarray as xr
+
+        return xr.Dataset({n: (self.dims, v) for n, v in self.data.items()},
+                          coords={d: list(self.coords[d]) for d in self.dims}, attrs=self.attrs)
+
+
+def _read(ds) -> np.ndarray:
+    import h5py
+
+    if h5py.check_string_dtype(ds.dtype) is not None:
+        return np.array(ds.asstr()[()], dtype=object)
+    return np.array(ds[()])
+
+
+def read_sweep(path: str | Path) -> SweepData:
+    """Read a sweep file written by :func:`run_sweep`."""
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as f:
+            if f.attrs.get("format") != FORMAT:
+                raise OSError("not a sweep file")
+            dims = tuple(json.loads(f.attrs["dims"]))
+            coords = {d: _read(f[d]) for d in dims}
+            data = {n: _read(f[n]) for n in f if n not in dims}
+            attrs = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in f.attrs.items()}
+    except (OSError, KeyError, ValueError) as exc:
+        raise ParameterError("file", str(path), f"a readable flagellum sweep file ({exc})") from None
+    return SweepData(dims, coords, data, attrs)
+
+
+class _Store:
+    """Grid-shaped results in memory; :meth:`save` rewrites the whole file atomically."""
+
+    def __init__(self, sweep: Sweep, path: Path):
+        self.sweep, self.path = sweep, path
+        self.data = {n: np.full(sweep.shape, _FILL[k], dtype=object if k == "str" else k)
+                     for n, k in VARIABLES.items()}
+        self.keys = np.full(sweep.shape, "", dtype=object)
+        fixed = dict(sweep.fixed)
+        self.attrs = {**fixed, "format": FORMAT, "format_version": 1, "dims": json.dumps(sweep.dims),
+                      "fixed": json.dumps(fixed, sort_keys=True), "seeds": np.array(sweep.seeds),
+                      **io.provenance()}
+
+    @property
+    def finished(self) -> np.ndarray:
+        return self.keys != ""
+
+    def put(self, index: int, point: Mapping, result: Mapping) -> None:
+        idx = np.unravel_index(index, self.sweep.shape)
+        for name, kind in VARIABLES.items():
+            self.data[name][idx] = result.get(name, _FILL[kind])
+        self.keys[idx] = point_key(point)
+
+    def save(self) -> None:
+        import h5py
+
+        with io.atomic_path(self.path) as tmp:
+            with h5py.File(tmp, "w") as f:
+                f.attrs.update(self.attrs)
+                for name, values in self.sweep.ranges:
+                    kind = "str" if PARAMETERS[name] is str else ("i1" if PARAMETERS[name] is bool else None)
+                    f.create_dataset(name, data=np.array(values, dtype=object if kind == "str" else kind),
+                                     dtype=h5py.string_dtype() if kind == "str" else None)
+                    f[name].make_scale(name)
+                for name, arr in {**self.data, "key": self.keys}.items():
+                    ds = f.create_dataset(name, data=arr, dtype=h5py.string_dtype()
+                                          if arr.dtype == object else None)
+                    for axis, dim in enumerate(self.sweep.dims):
+                        ds.dims[axis].attach_scale(f[dim])
+
+    @classmethod
+    def open(cls, sweep: Sweep, path: Path, resume: bool, overwrite: bool) -> "_Store":
+        """A new store, holding the finished points of ``path`` when resuming."""
+        store = cls(sweep, path)
+        if not path.exists():
+            return store
+        if not resume:
+            if overwrite:
+                return store
+            raise ParameterError("out", str(path), "a new file (use --resume to continue it "
+                                                   "or --overwrite to replace it)")
+        old = read_sweep(path)
+        if old.attrs.get("fixed") != store.attrs["fixed"] or set(old.dims) != set(sweep.dims) \
+                or not set(VARIABLES) <= set(old.data):
+            raise ParameterError("resume", str(path), "a sweep file with the same fixed parameters, "
+                                                      "swept names and variables")
+        done = {k: i for i, k in enumerate(old.data["key"].ravel()) if k}
+        points = sweep.points()
+        lost = set(done) - {point_key(p) for p in points}
+        if lost:
+            raise ParameterError("resume", str(path), f"ranges that contain its {len(lost)} "
+                                                      f"finished point(s) off the new grid")
+        for i, point in enumerate(points):
+            j = done.get(point_key(point))
+            if j is not None:
+                store.put(i, point, {n: old.data[n].ravel()[j] for n in VARIABLES})
+        return store
+
+
+# -- executors ----------------------------------------------------------------------------
+
+
+def _exit_with_parent(parent: int) -> None:
+    """Pool initializer: end the worker when the sweep process dies (e.g. killed)."""
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
+
+
+@contextmanager
+def _local_pool(workers: int):
+    """Yield (submit, as_completed) of a spawn-started process pool, single-threaded BLAS."""
+    threads = {k: "1" for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+               if k not in os.environ}
+    os.environ.update(threads)  # inherited by the spawned workers
+    pool = concurrent.futures.ProcessPoolExecutor(
+        workers, mp_context=multiprocessing.get_context("spawn"),
+        initializer=_exit_with_parent, initargs=(os.getpid(),))
+    ok = False
+    try:
+        yield pool.submit, concurrent.futures.as_completed
+        ok = True
+    finally:
+        pool.shutdown(wait=ok, cancel_futures=True)
+        for k in threads:
+            os.environ.pop(k, None)
+
+
+@contextmanager
+def _dask(scheduler: str | None, dask_local: int | None):
+    """Yield (submit, as_completed) of a dask client: at ``scheduler`` or on a local cluster."""
+    where = scheduler if scheduler is not None else f"dask-local {dask_local}"
+    try:
+        import distributed
+    except ImportError:
+        raise ParameterError("scheduler", where, "usable: install dask[distributed] "
+                                                 "(pip install 'flagellum[dist]')") from None
+    cluster = client = None
+    try:
+        if dask_local is not None:
+            cluster = distributed.LocalCluster(n_workers=dask_local, threads_per_worker=1,
+                                               processes=True, host="127.0.0.1",
+                                               dashboard_address=None, silence_logs=logging.ERROR)
+        try:
+            client = distributed.Client(cluster if cluster is not None else scheduler, timeout=15)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ParameterError("scheduler", where,
+                                 f"a reachable dask scheduler ({_one_line(exc)})") from None
+        yield (lambda fn, arg: client.submit(fn, arg, pure=False)), distributed.as_completed
+    finally:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+# -- running ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SweepReport:
+    """Outcome of :func:`run_sweep` (counts of grid points)."""
+
+    points: int
+    finished: int  #: in the file, failed ones included
+    failed: int  #: finished with a status other than "ok"
+    computed: int  #: simulated by this call
+    skipped: int  #: already finished in the file (resume)
+    lost: int  #: whose worker died: not finished, a resume retries them
+    output: str
+    wall_seconds: float
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def run_sweep(sweep: Sweep, out: str | Path, *, resume: bool = False, overwrite: bool = False,
+              workers: int | None = None, scheduler: str | None = None,
+              dask_local: int | None = None, progress: bool | None = None) -> SweepReport:
+    """Run every point of ``sweep`` not yet finished in ``out`` and write the dataset.
+
+    Parameters
+    ----------
+    sweep : the grid.
+    out : output HDF5 file, rewritten atomically after every finished point.
+    resume : keep the finished points of an existing ``out`` (same fixed parameters and
+        swept names; the new ranges must contain them) and compute only the others.
+    overwrite : replace an existing ``out`` (otherwise an error, unless ``resume``).
+    workers : size of the local process pool (default ``os.cpu_count()``).
+    scheduler : address of a ``dask.distributed`` scheduler, e.g. ``tcp://host:8786``.
+    dask_local : start a local dask cluster of this many single-threaded worker processes.
+    progress : tqdm bar on stderr (default: when stderr is a terminal).
+    """
+    t0 = time.perf_counter()
+    if scheduler is not None and dask_local is not None:
+        raise ParameterError("scheduler", scheduler, "not combined with dask_local")
+    for name, n in (("workers", workers), ("dask_local", dask_local)):
+        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+            raise ParameterError(name, n, "an integer ≥ 1")
+    store = _Store.open(sweep, Path(out), resume, overwrite)
+    skipped = int(store.finished.sum())
+    points, tasks, invalid = sweep.points(), [], None
+    for i, point in enumerate(points):
+        if store.finished.flat[i]:
+            continue
+        try:  # invalid parameters fail at once, without a worker
+            PointRun.from_values(sweep.values(point))
+            tasks.append(i)
+        except FlagellumError as exc:
+            invalid = invalid or exc
+            store.put(i, point, {"status": _one_line(exc), "wall_seconds": 0.0})
+    if invalid is not None and not tasks and skipped == 0:
+        raise invalid  # no valid point at all: a bad input, not a sweep
+    computed = lost = 0
+    if not tasks:
+        store.save()
+    else:
+        from tqdm import tqdm
+
+        executor = (_local_pool(min(workers or os.cpu_count() or 1, len(tasks)))
+                    if scheduler is None and dask_local is None else _dask(scheduler, dask_local))
+        show = sys.stderr.isatty() if progress is None else progress
+        with executor as (submit, as_completed), \
+                tqdm(total=sweep.size, initial=sweep.size - len(tasks), unit="pt", desc="sweep",
+                     dynamic_ncols=True, disable=not show) as bar:
+            store.save()  # the grid, once the workers are reachable
+            futures = {submit(run_point, sweep.values(points[i])): i for i in tasks}
+            for fut in as_completed(futures):
+                i = futures[fut]
+                try:
+                    result = fut.result()
+                except Exception:  # the worker died (not the simulation): retried on resume
+                    lost += 1
+                    continue
+                store.put(i, points[i], result)
+                store.save()
+                computed += 1
+                bar.update(1)
+    status = store.data["status"][store.finished]
+    return SweepReport(points=sweep.size, finished=int(store.finished.sum()),
+                       failed=int(np.sum(status != "ok")), computed=computed, skipped=skipped,
+                       lost=lost, output=str(out), wall_seconds=time.perf_counter() - t0)
+
+
+__all__ = ["PARAMETERS", "VARIABLES", "Sweep", "SweepData", "SweepReport", "PointRun",
+           "canonical_name", "parse_values", "point_key", "read_sweep", "run_point", "run_sweep"]

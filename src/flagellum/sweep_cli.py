@@ -1,0 +1,78 @@
+"""CLI command ``flagellum sweep`` (registered by :mod:`flagellum.cli` from :data:`COMMANDS`)."""
+
+from __future__ import annotations
+
+import click
+
+from .cli import _FLAG_HELP, emit_json, emit_table
+from .sweep import PARAMETERS, Sweep, parse_values, run_sweep
+
+_HELP = {
+    **_FLAG_HELP,
+    "friction": "friction model: paper, lighthill, custom",
+    "torque": "motor torque M [pN·µm] (> 0 pushes)",
+    "ramp_time": "ramp the torque on over this time [s]",
+    "anchor": "fixed or sphere (implied by --sphere-radius)",
+    "sphere_radius": "load sphere radius a [µm]",
+    "hook": "free, elastic (implied by --hook-stiffness), clamped",
+    "hook_stiffness": "hook stiffness k [pN·µm]",
+    "time": "simulated time per point [s] (default 0.3)",
+    "save_every": "save interval [s] (default time/300)",
+    "average_from": "average from this time on [s] (default: last half)",
+    "thermal": "true or false (default: true when kT is given)",
+    "seed": "random seed of thermal runs (default 0)",
+    "method": "integrator: cvode or implicit",
+    "rtol": "relative tolerance of cvode",
+    "dt": "time step of the implicit scheme [s]",
+}
+
+
+def parameter_options(func):
+    """One option per sweepable parameter taking ``start:stop[:step]``, ``a,b,c`` or a value."""
+    for name in reversed(PARAMETERS):
+        flags = ["--" + name.replace("_", "-")] + (["--t-end"] if name == "time" else [])
+        func = click.option(*flags, name, type=str, default=None, metavar="RANGE",
+                            help=_HELP[name])(func)
+    return func
+
+
+@click.command("sweep")
+@click.argument("config", required=False, type=click.Path(dir_okay=False))
+@parameter_options
+@click.option("--out", "-o", required=True, type=click.Path(dir_okay=False),
+              help="output HDF5 dataset (e.g. results.nc)")
+@click.option("--resume", is_flag=True, help="keep the finished points of --out, compute the rest")
+@click.option("--overwrite", is_flag=True, help="replace an existing --out")
+@click.option("--workers", type=int, default=None, help="local worker processes (default: all cores)")
+@click.option("--scheduler", default=None, help="run on this dask scheduler (tcp://host:port)")
+@click.option("--dask-local", type=int, default=None, help="run on a local dask cluster of N workers")
+@click.option("--json", "as_json", is_flag=True, help="no progress bar; print one JSON object")
+@click.pass_context
+def sweep(ctx, config, out, resume, overwrite, workers, scheduler, dask_local, as_json, **kwargs):
+    """Run a grid of simulations (CONFIG: TOML with [fixed] and [ranges]; flags override it).
+
+    Each parameter flag takes a range start:stop:step (stop included when on the grid), a
+    list a,b,c, or one value (fixed). Results: one HDF5 dataset, written after each point.
+    """
+    given = {k: v for k, v in kwargs.items() if v is not None}
+    if config is None and not given:
+        raise click.UsageError("give a CONFIG file or at least one parameter (e.g. --torque 1:3:1)")
+    ranges, fixed = {}, {}
+    for name, text in given.items():
+        values = parse_values(name, text)
+        (ranges if len(values) > 1 else fixed)[name] = values if len(values) > 1 else values[0]
+    base = Sweep.from_toml(config) if config is not None else Sweep()
+    report = run_sweep(base.updated(ranges, fixed), out, resume=resume, overwrite=overwrite,
+                       workers=workers, scheduler=scheduler, dask_local=dask_local,
+                       progress=False if as_json else None)
+    if as_json:
+        emit_json(report.to_dict())
+    else:
+        emit_table(report.to_dict(), "flagellum sweep")
+    if report.lost:
+        click.echo(f"flagellum: {report.lost} point(s) lost with their workers; "
+                   f"rerun with --resume", err=True)
+        ctx.exit(1)
+
+
+COMMANDS = [sweep]

@@ -12,7 +12,7 @@ KT = 4.1e-3
 
 def _run(params, t_end, dt, seed=3, every=4):
     sim = Simulator(params, Motor(0.0), thermal=True, seed=seed,
-                    solver=SolverOptions(method="implicit", dt=dt))
+                    solver=SolverOptions(method="implicit", dt=dt, theta=0.5))
     return sim.run(t_end, save_every=every * dt, progress=False)
 
 

@@ -184,6 +184,8 @@ def motor_boundary_from_cli(kwargs: dict):
               help="integrator (default: cvode, implicit for thermal runs)")
 @click.option("--rtol", type=float, default=1e-6, show_default=True, help="relative tolerance (cvode)")
 @click.option("--dt", type=float, default=5e-5, show_default=True, help="time step of the implicit scheme [s]")
+@click.option("--theta", type=float, default=1.0, show_default=True,
+              help="implicitness of the fixed-step scheme: 1 implicit Euler, 0.5 trapezoidal")
 @click.option("--frame", default="auto", show_default=True,
               help="computational frame: auto (co-rotating), lab, or a rotation rate [rad/s]")
 @click.option("--output", "-o", type=click.Path(dir_okay=False), default=None, help="HDF5 trajectory file")
@@ -192,8 +194,8 @@ def motor_boundary_from_cli(kwargs: dict):
 @click.option("--resume", "resume_file", type=click.Path(dir_okay=False), default=None,
               help="continue the run in this HDF5 file from its last checkpoint")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object (no progress bar)")
-def simulate(t_end, save_every, average_from, thermal, seed, method, rtol, dt, frame, output,
-             checkpoint_every, resume_file, as_json, **kwargs):
+def simulate(t_end, save_every, average_from, thermal, seed, method, rtol, dt, theta, frame,
+             output, checkpoint_every, resume_file, as_json, **kwargs):
     """Simulate the motor-driven filament and report time-averaged observables."""
     from .simulator import Simulator, SolverOptions
 
@@ -209,7 +211,7 @@ def simulate(t_end, save_every, average_from, thermal, seed, method, rtol, dt, f
     except ValueError:
         pass
     solver = SolverOptions(method=method or ("implicit" if thermal else "cvode"), rtol=rtol,
-                           atol=rtol * 1e-2, dt=dt, frame=frame)
+                           atol=rtol * 1e-2, dt=dt, theta=theta, frame=frame)
     sim = Simulator(params, motor, boundary, thermal=thermal, seed=seed, solver=solver)
     traj = sim.run(t_end, save_every=save_every if save_every is not None else t_end / 300,
                    output=output, progress=False if as_json else None,

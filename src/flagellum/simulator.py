@@ -149,6 +149,8 @@ class Simulator:
             raise ParameterError("seed", seed, "a non-negative integer")
         self.seed = int(seed) if seed is not None else 0
         f = self.solver.frame
+        self._omega_scale = pinned_omega_per_torque(self.params) * max(
+            abs(self.motor.final_torque), abs(self.motor.torque), 1e-3)
         omega = 0.0 if f == "lab" else (float(f) if not isinstance(f, str) else
                                          pinned_omega_per_torque(self.params) * self.motor.final_torque)
         self.model = RodModel(self.params, self.motor, self.boundary, omega_frame=omega)
@@ -200,10 +202,10 @@ class Simulator:
     def _advance(self, stepper, t_target: float) -> np.ndarray:
         """Advance to t_target in chunks short enough that no tangent can turn by more than
         ~1/2 rad between chart checks (charts are re-centred, and the integrator restarted,
-        only when a tangent has left its chart by more than 60°)."""
+        only when a tangent has left its chart by more than 90°)."""
         rate = max(abs(self.model.omega_frame), 100.0)
-        if self._last_motor is not None:
-            rate = max(rate, abs(self._last_motor[3]))
+        if self._last_motor is not None:  # measured motor speed, capped: transients spike it
+            rate = max(rate, min(abs(self._last_motor[3]), 3.0 * self._omega_scale))
         chunk = 0.5 / rate
         y = stepper.y
         while stepper.t < t_target:
@@ -211,7 +213,7 @@ class Simulator:
             if t_target - t_next < 0.25 * chunk:
                 t_next = t_target
             y = stepper.advance(t_next)
-            if t_next < t_target and self.model.rechart(y, threshold=0.5):
+            if t_next < t_target and self.model.rechart(y, threshold=0.0):
                 stepper.reset(t_next, y)
         return y
 

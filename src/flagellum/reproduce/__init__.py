@@ -1,0 +1,68 @@
+"""Reproduce the figures of Vogel & Stark (2012): ``flagellum reproduce FIG --out DIR``.
+
+Each target writes into ``DIR/<fig>/`` the figure as PNG and PDF, the data behind it (CSV and
+HDF5) and ``comparison.md`` — every number the paper states for that figure next to ours,
+with the difference. :func:`reproduce` returns the headline numbers (printed by ``--json``).
+
+Qualities: ``quick`` (CI-size runs, each figure within about two minutes on two cores) and
+``full`` (publication quality; all figures within 30 minutes on two cores). See
+``docs/reproduce.md`` and :mod:`.common` for the figure numbering.
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+
+from .common import FIGURES, QUALITIES, Timer, check_quality
+
+TARGETS = FIGURES + ("all",)
+
+
+def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality: str = "quick",
+              context: dict | None = None, echo=None) -> dict:
+    """Run one figure (``"fig3"`` … ``"fig8"``) or ``"all"``; returns the headline numbers.
+
+    ``context`` caches work shared between figures (the simulation sweep of Fig. 3/4, the
+    critical points of Fig. 5/7) when several run in one process.
+    """
+    from ..errors import ParameterError
+
+    if target not in TARGETS:
+        raise ParameterError("figure", target, "one of " + ", ".join(TARGETS))
+    check_quality(quality)
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise ParameterError("out", str(out), "a directory")
+    context = {} if context is None else context
+    if echo:
+        context["log"] = True
+    targets = FIGURES if target == "all" else (target,)
+    result, timer = {}, Timer()
+    for fig in targets:
+        if echo:
+            echo(f"reproducing {fig} ({quality}) …")
+        mod = importlib.import_module(f".{fig}", __name__)
+        t = Timer()
+        result[fig] = mod.run(out / fig, quality, context)
+        if echo:
+            echo(f"  {fig} done in {t.seconds:.1f} s → {out / fig}")
+    if target != "all":
+        return result[target]
+    _write_index(out, result, quality, timer.seconds)
+    return {**result, "wall_seconds": timer.seconds, "quality": quality}
+
+
+def _write_index(out: Path, result: dict, quality: str, seconds: float) -> None:
+    """``DIR/comparison.md``: all comparison tables in one file."""
+    from ..io import atomic_write_text
+
+    parts = [f"# flagellum reproduce all (quality `{quality}`, {seconds:.0f} s)", ""]
+    for fig in result:
+        p = out / fig / "comparison.md"
+        if p.exists():
+            parts.append(p.read_text().replace("# ", "## ", 1))
+    atomic_write_text(out / "comparison.md", "\n".join(parts))
+
+
+__all__ = ["reproduce", "TARGETS", "FIGURES", "QUALITIES"]

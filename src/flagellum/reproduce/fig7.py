@@ -1,0 +1,209 @@
+"""Fig. 7 (``fig: buckling theory``): (a) the manifold of bifurcation points of the helical
+rod in (m̂, f̂∥, f̂⊥), (b) buckling curves f̂∥(m̂) for f̂⊥ = 0, 25, …, 300 with the critical
+points of the filament (red dots), (c) the plane of eq. (plane) and its intersection with
+the manifold, (d) the resulting critical force-torque relation, for constant friction
+coefficients and with the torque-dependent radius.
+
+Method
+------
+* The rod theory of §4 (:func:`flagellum.theory.manifold.compute_manifold`, shooting with
+  exact Newton Jacobians, see docs/theory.md).
+* Red dots: M_c1, F_c1 of the filament with load spheres from the linear stability of the
+  aligned state (the data of Fig. 5 when run together, otherwise a few load spheres),
+  in reduced units m̂ = M L0/A_eff, f̂∥ = F L0²/A_eff.
+* Shoulder of the buckling curves (the ridge of the manifold): m̂ of the local minimum of
+  the f̂⊥ = 75 curve, where the curves flatten and rise again.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .common import PAPER, Comparison, Timer, mpl, save_figure, write_csv, write_h5
+
+GRIDS = {"quick": dict(m_values=np.linspace(0, 20, 21), f_par_values=np.linspace(0, 120, 13),
+                       inv_a_values=np.linspace(0, 5, 11)),
+         "full": dict(m_values=np.linspace(0, 20, 41), f_par_values=np.linspace(0, 120, 41),
+                      inv_a_values=np.linspace(0, 5, 21))}
+DOT_INV_A = {"quick": (0.0, 1.0, 4.0), "full": (0.0, 0.5, 1.0, 2.0, 4.0, 10.0)}
+
+
+def red_dots(quality: str, context: dict | None) -> list[dict]:
+    """Critical points of the filament (linear stability), reused from Fig. 5 if present."""
+    from . import fig5
+
+    context = {} if context is None else context
+    for key in (f"fig5_{quality}", "fig5_full", "fig5_quick"):
+        if key in context:
+            return [p for p in context[key] if "error" not in p]
+    inv = DOT_INV_A[quality]
+    guess = fig5._theory(inv)["M"]
+    from .common import pmap
+
+    jobs = [{"inv_a": float(v), "guess": float(g), "cost": float(g)} for v, g in zip(inv, guess)]
+    return [p for p in pmap(fig5._critical, jobs) if "error" not in p]
+
+
+def shoulder(levels: dict, level: float = 75.0) -> float:
+    """m̂ of the local minimum of the f̂⊥ = ``level`` buckling curve (NaN if none)."""
+    if level not in levels:
+        return math.nan
+    m, f, _ = levels[level]
+    ok = np.isfinite(f)
+    m, f = m[ok], f[ok]
+    for k in range(1, len(f) - 1):
+        if m[k] > 5 and f[k] < f[k - 1] and f[k] <= f[k + 1]:
+            return float(m[k])
+    return math.nan
+
+
+def collapse_torque(tab: dict) -> float:
+    """M where the plane-intersection F_c(M) falls to half its maximum (after the maximum)."""
+    M, F = np.asarray(tab["M"], float), np.asarray(tab["F"], float)
+    ok = np.isfinite(M) & np.isfinite(F)
+    M, F = M[ok], F[ok]
+    if len(F) < 2:
+        return math.nan
+    k0 = int(np.argmax(F))
+    half = 0.5 * F[k0]
+    for k in range(k0 + 1, len(F)):
+        if F[k] < half:
+            return float(M[k - 1] + (M[k] - M[k - 1]) * (half - F[k - 1]) / (F[k] - F[k - 1]))
+    return math.nan
+
+
+def plot(res, dots, quality, out_dir: Path):
+    plt = mpl()
+    rod, s = res.rod, res.surface
+    fig = plt.figure(figsize=(13, 10))
+    a = fig.add_subplot(2, 2, 1, projection="3d")
+    mm, ff = np.meshgrid(s.m_hat, s.f_par, indexing="ij")
+    z = np.where(np.isfinite(s.f_perp), np.clip(s.f_perp, -150, 600), np.nan)
+    a.plot_surface(mm, ff, z, cmap="viridis", rstride=1, cstride=1, linewidth=0.2, edgecolor="k",
+                   alpha=0.9)
+    a.set_xlabel(r"$\hat m$")
+    a.set_ylabel(r"$\hat f_\parallel$")
+    a.set_zlabel(r"critical $\hat f_\perp$ (clipped to [−150, 600])")
+    a.set_title("(a) manifold of bifurcation points", fontsize=10)
+    a.view_init(elev=25, azim=-130)
+    a = fig.add_subplot(2, 2, 2)
+    cmap = plt.get_cmap("viridis")
+    lv = sorted(res.levels)
+    for k, level in enumerate(lv):
+        m, f, _ = res.levels[level]
+        a.plot(m, f, color=cmap(k / max(1, len(lv) - 1)), lw=1.2,
+               label=rf"$\hat f_\perp$ = {level:g}" if level % 100 == 0 or level == 25 else None)
+    if dots:
+        mh = [p["M_c1"] / rod.torque_scale for p in dots]
+        fh = [p["F_c1"] / rod.force_scale for p in dots]
+        a.plot(mh, fh, "o", color="red", ms=6, label="filament, linear stability")
+    a.set(xlabel=r"$\hat m = M L_0/A_{eff}$", ylabel=r"$\hat f_\parallel = F L_0^2/A_{eff}$",
+          title=r"(b) buckling curves, $\hat f_\perp$ = 0, 25, …, 300")
+    a.legend(fontsize=7.5)
+    a = fig.add_subplot(2, 2, 3)
+    data = np.clip(s.f_perp.T, -150, 600)
+    pc = a.pcolormesh(s.m_hat, s.f_par, data, shading="auto", cmap="viridis")
+    fig.colorbar(pc, ax=a, label=r"critical $\hat f_\perp$ (clipped)")
+    mline = np.linspace(0, s.m_hat.max(), 60)
+    for rc, style, col in ((False, "-", "tab:blue"), (True, "--", "tab:green")):
+        tab = res.plane[rc].table()
+        a.plot(tab["m_hat"], tab["f_par"], style, color=col, lw=2,
+               label="plane ∩ manifold, " + ("radius correction" if rc else "constant friction"))
+    anchored = [(-rod.coefficients(m * rod.torque_scale)[2] * rod.L0 * m / rod.coefficients(m * rod.torque_scale)[1])
+                for m in mline]
+    a.plot(mline, anchored, "w:", lw=1, label=r"plane at $\hat f_\perp$ = 0 (anchored)")
+    a.set_ylim(s.f_par.min(), s.f_par.max())
+    a.set(xlabel=r"$\hat m$", ylabel=r"$\hat f_\parallel$", title="(c) plane of eq. (plane) on the manifold")
+    a.legend(fontsize=7, loc="upper right")
+    a = fig.add_subplot(2, 2, 4)
+    for rc, style, col in ((False, "-", "tab:blue"), (True, "--", "tab:green")):
+        tab = res.plane[rc].table()
+        a.plot(tab["M"], tab["F"], style, color=col, lw=2,
+               label="theory, " + ("torque-dependent radius" if rc else "constant friction"))
+    if dots:
+        a.plot([p["M_c1"] for p in dots], [p["F_c1"] for p in dots], "o", color="red",
+               label="filament, linear stability")
+    a.set(xlabel="critical torque $M_c$ [pN·µm]", ylabel="critical thrust $F_c$ [pN]",
+          title=f"(d) buckling curves (quality {quality})")
+    a.set_ylim(bottom=0)
+    a.legend(fontsize=8)
+    fig.tight_layout()
+    return save_figure(fig, out_dir, "fig7")
+
+
+def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
+    from ..theory.manifold import compute_manifold, write_manifold
+
+    timer = Timer()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    res = compute_manifold(**GRIDS[quality])
+    t_manifold = timer.seconds
+    dots = red_dots(quality, context)
+    rod = res.rod
+    files = plot(res, dots, quality, out_dir)
+    data_dir = out_dir / "manifold"
+    files += write_manifold(res, data_dir)
+    files.append(write_csv(out_dir / "red_dots.csv", {
+        "inv_a": [p["inv_a"] for p in dots], "M_c1": [p["M_c1"] for p in dots],
+        "F_c1": [p["F_c1"] for p in dots], "m_hat": [p["M_c1"] / rod.torque_scale for p in dots],
+        "f_par_hat": [p["F_c1"] / rod.force_scale for p in dots]}))
+    s = res.surface
+    groups = {"surface": {"m_hat": s.m_hat, "f_par": s.f_par, "f_perp": s.f_perp, "chi": s.chi}}
+    for level, (m, f, chi) in res.levels.items():
+        groups[f"level_{level:g}"] = {"m_hat": m, "f_par": f, "chi": chi}
+    for rc in (False, True):
+        tag = "radius_correction" if rc else "constant_friction"
+        groups[f"plane_{tag}"] = {k: np.asarray(v, float) for k, v in res.plane[rc].table().items()}
+        groups[f"sphere_{tag}"] = {k: np.asarray(v, float) for k, v in res.sphere[rc].table().items()}
+    files.append(write_h5(out_dir / "fig7.h5", groups, {"quality": quality}))
+
+    summ = res.summary()
+    a0 = summ["without_radius_correction"]["anchored"]
+    a1 = summ["with_radius_correction"]["anchored"]
+    ridge = shoulder(res.levels)
+    coll = {rc: collapse_torque(res.plane[rc].table()) for rc in (False, True)}
+    # agreement at low m̂: theory (radius correction) on the load-sphere rays vs linear stability
+    from .fig5 import _theory
+
+    agree = math.nan
+    low = [p for p in dots if p["M_c1"] / rod.torque_scale < 10]
+    if low:
+        th = _theory([p["inv_a"] for p in low], radius_correction=True)
+        rel = [abs(f - p["F_c1"]) / p["F_c1"] for f, p in zip(th["F"], low) if math.isfinite(f)]
+        agree = max(rel) if rel else math.nan
+    cmp = Comparison("fig7", "critical manifold of the helical rod and the force-torque relation", quality)
+    cmp.add("anchored M_c1, rod theory with constant friction [paper: simulation ≈ 1.1]",
+            PAPER["M_c1"][0], a0["M"], "pN·µm", "compute_manifold: load-sphere ray at 1/a = 0")
+    cmp.add("anchored M_c1, rod theory with radius correction [paper: simulation ≈ 1.1]",
+            PAPER["M_c1"][0], a1["M"], "pN·µm", "same, R⁻¹ → R⁻¹ + M/(2A cos α)")
+    cmp.add("anchored F_c1, rod theory with constant friction", PAPER["F_c1"][0], a0["F"], "pN",
+            "compute_manifold")
+    cmp.add("anchored F_c1, rod theory with radius correction", PAPER["F_c1"][0], a1["F"], "pN",
+            "compute_manifold")
+    cmp.add("shoulder of the buckling curves (ridge of the manifold) at m̂ ≈", PAPER["ridge_m_hat"][0],
+            ridge, "", "local minimum of the f̂⊥ = 75 buckling curve (grid step "
+            f"{np.diff(s.m_hat)[0]:g})")
+    cmp.add("theory vs filament for m̂ < 10 [paper: remarkable / quantitative agreement]", 0.0, agree, "",
+            "largest relative difference of F_c (theory with radius correction) from the linear-"
+            "stability F_c1 on the same load spheres, " + ", ".join(f"1/a = {p['inv_a']:g}" for p in low))
+    cmp.add("torque of the collapse of F_c, theory (constant friction) [paper: simulation ≈ 4, theory "
+            "shifted to larger torque]", PAPER["M_c1_quadratic"][0], coll[False], "pN·µm",
+            "F_c on the plane ∩ manifold at half its maximum")
+    cmp.add("torque of the collapse of F_c, theory (radius correction)", PAPER["M_c1_quadratic"][0],
+            coll[True], "pN·µm", "same")
+    cmp.note("Dimensionless theory in units A_eff/L0 = "
+             f"{rod.torque_scale:.4f} pN·µm (torque) and A_eff/L0² = {rod.force_scale:.5f} pN (force).")
+    cmp.note("Red dots: linear stability of the filament with load spheres (Fig. 5), not the paper's "
+             "simulated points.")
+    cmp.note("The paper's printed eq. (plane) has the opposite sign of f∥; the code uses the sign that "
+             "reproduces eq. (25) (docs/theory.md).")
+    files.append(cmp.write(out_dir))
+    return {"M_c1_theory": a0["M"], "M_c1_theory_radius_correction": a1["M"],
+            "F_c1_theory": a0["F"], "F_c1_theory_radius_correction": a1["F"],
+            "m_hat_c1": a0["m_hat"], "f_par_hat_c1": a0["f_par"], "shoulder_m_hat": ridge,
+            "collapse_torque": coll[False], "collapse_torque_radius_correction": coll[True],
+            "manifold_seconds": t_manifold, "quality": quality, "wall_seconds": timer.seconds,
+            "files": [str(f) for f in files]}

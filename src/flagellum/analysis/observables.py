@@ -86,8 +86,11 @@ class Summary:
 
 
 def summarize(t, thrust, motor_angle, positions, energy, helix_radius: float,
-              t_from: float | None = None) -> Summary:
-    """Averages over t ≥ t_from (default: the last half of the run)."""
+              t_from: float | None = None, motor_speed=None) -> Summary:
+    """Averages over t ≥ t_from (default: the last half of the run).
+
+    ω is the mean of ``motor_speed`` samples when given, else the slope of ``motor_angle``.
+    """
     t = np.asarray(t, float)
     if t_from is None:
         t_from = t[0] + 0.5 * (t[-1] - t[0])
@@ -100,7 +103,8 @@ def summarize(t, thrust, motor_angle, positions, energy, helix_radius: float,
     m, err = block_average(th)
     chi, rho = precession_rate(t[sel], np.asarray(positions)[sel], 0.25 * helix_radius)
     return Summary(thrust_mean=m, thrust_std=float(th.std()), thrust_err=err,
-                   omega_mean=_slope(t[sel], np.asarray(motor_angle)[sel]), chi_mean=chi,
+                   omega_mean=(float(np.mean(np.asarray(motor_speed)[sel])) if motor_speed is not None
+                               else _slope(t[sel], np.asarray(motor_angle)[sel])), chi_mean=chi,
                    end_to_end_mean=float(r.mean()), end_to_end_std=float(r.std()),
                    energy_final=float(np.asarray(energy)[-1]), centroid_offset=rho,
                    t_from=float(t_from), t_end=float(t[-1]), samples=int(sel.sum()))

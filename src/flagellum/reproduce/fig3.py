@@ -144,7 +144,8 @@ def plot(points, ana, rft, crit, quality, out_dir: Path):
             ax.plot(p["torque"], p["thrust_max"], "^", color=c, mfc="none")
     ax.plot([], [], "k^", mfc="none", label="max / min of F(t)")
     ax.axvline(crit["critical_torque"], color="0.3", ls="--", lw=1)
-    ax.text(crit["critical_torque"], ax.get_ylim()[1] * 0.95, f" $M_{{c1}}$ = {crit['critical_torque']:.3f}\n (stability)",
+    ylo, yhi = ax.get_ylim()
+    ax.text(crit["critical_torque"], ylo + 0.55 * (yhi - ylo), f" $M_{{c1}}$ = {crit['critical_torque']:.3f}\n (stability)",
             fontsize=8, va="top")
     if math.isfinite(ana["M_c2"]):
         ax.axvline(ana["M_c2"], color="0.3", ls="-.", lw=1)
@@ -153,7 +154,7 @@ def plot(points, ana, rft, crit, quality, out_dir: Path):
     ax.set_xlabel("motor torque M [pN·µm]")
     ax.set_ylabel("thrust force F [pN]")
     ax.set_title(f"(a) thrust versus torque (quality {quality})")
-    ax.legend(fontsize=7.5, loc="lower right")
+    ax.legend(fontsize=7.5, loc="upper left")
     shown = [(lab, next((p for p in ok if p["torque"] == M and "series" in p), None))
              for lab, M in PANEL_TORQUES[quality].items()]
     for k, (lab, p) in enumerate(shown):

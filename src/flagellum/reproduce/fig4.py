@@ -89,8 +89,10 @@ def plot(lam, points, thermal, rft_omega, crit, quality, out_dir: Path, sig_eq_l
         if sel:
             a.plot([p["torque"] for p in sel], [p["omega"] for p in sel], "o", color=COLORS[reg], label=f"ω, {reg}")
     a.set(xlabel="motor torque M [pN·µm]", ylabel="ω [rad/s]", title="(b) rotation rate ω; inset: precession χ")
+    lo, hi = a.get_ylim()
+    a.set_ylim(lo, hi + 0.45 * (hi - lo))  # room for the legend
     a.legend(fontsize=7, loc="upper left")
-    ins = a.inset_axes([0.62, 0.58, 0.35, 0.37])
+    ins = a.inset_axes([0.55, 0.08, 0.42, 0.3])
     ins.plot([p["torque"] for p in ok], [p["chi"] for p in ok], "s-", ms=3, color="tab:purple")
     ins.set_xlabel("M [pN·µm]", fontsize=7)
     ins.set_ylabel("χ [rad/s]", fontsize=7)

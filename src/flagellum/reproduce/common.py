@@ -1,7 +1,8 @@
 """Shared machinery of ``flagellum reproduce``: qualities, output files, the comparison
 table, a process pool, and the simulation of one torque (used by Fig. 3 and Fig. 4).
 
-Figure numbers follow the published article (EPJ E 35, 15 (2012)):
+Figure numbers are those of issue 8; the TeX source (which also counts the sketches) labels
+them as follows:
 
 =====  ======================================================  ==========================
 fig    content                                                 label in the TeX source

@@ -200,6 +200,96 @@ def test_resume_rules(reference, tmp_path):
         read_sweep(tmp_path / "missing.nc")
 
 
+# -- retries of failed points --------------------------------------------------------------
+
+
+@pytest.fixture
+def flaky(monkeypatch):
+    """Points run in-process (one thread instead of the spawned pool, so that patches apply)
+    and the point at torque 1.5 fails deterministically with cvode, not with the implicit
+    scheme. Returns the (torque, method) of every simulation."""
+    import concurrent.futures
+    from contextlib import contextmanager
+
+    import flagellum.sweep as engine
+    from flagellum.errors import SimulationError
+
+    @contextmanager
+    def pool(workers):
+        with concurrent.futures.ThreadPoolExecutor(1) as ex:
+            yield ex.submit, concurrent.futures.as_completed
+
+    real, calls = engine.PointRun.simulate, []
+
+    def simulate(self):
+        calls.append((self.motor.torque, self.solver.method))
+        if self.motor.torque == 1.5 and self.solver.method == "cvode":
+            raise SimulationError("injected CVODE failure")
+        return real(self)
+
+    monkeypatch.setattr(engine, "_local_pool", pool)
+    monkeypatch.setattr(engine.PointRun, "simulate", simulate)
+    return calls
+
+
+def test_retry_failed_on_resume_with_a_fallback(flaky, tmp_path):
+    path, sweep = tmp_path / "f.nc", Sweep.create({"torque": [0.5, 1.5]}, TINY)
+    first = run_sweep(sweep, path, progress=False)
+    assert (first.failed, first.retried) == (1, 0)
+    before = read_sweep(path)
+    assert before.data["status"][1] == "injected CVODE failure" and before.data["fallback"][1] == ""
+    assert run_sweep(sweep, path, resume=True).computed == 0  # a plain resume keeps failures
+    again = run_sweep(sweep, path, retry_failed=True)  # same solver: fails again
+    assert (again.computed, again.retried, again.failed) == (1, 1, 1)
+    fixed = run_sweep(sweep, path, retry_failed=True, fallback={"method": "implicit"})
+    assert (fixed.computed, fixed.retried, fixed.failed, fixed.skipped) == (1, 1, 0, 1)
+    d = read_sweep(path)
+    assert list(d.data["status"]) == ["ok", "ok"] and np.isfinite(d.data["thrust_mean"]).all()
+    assert d.data["fallback"][1] == json.dumps({"method": "implicit"}) and d.data["fallback"][0] == ""
+    assert [n for n in VARIABLES if not identical(d.data[n][:1], before.data[n][:1])] == []
+    assert flaky == [(0.5, "cvode"), (1.5, "cvode"), (1.5, "cvode"), (1.5, "implicit")]
+
+
+def test_fallback_retries_a_failure_at_once(flaky, tmp_path):
+    report = run_sweep(Sweep.create({"torque": [0.5, 1.5]}, TINY), tmp_path / "g.nc",
+                       fallback={"rtol": 1e-7, "method": "implicit"})
+    assert (report.computed, report.retried, report.failed) == (2, 1, 0)
+    assert sorted(flaky) == [(0.5, "cvode"), (1.5, "cvode"), (1.5, "implicit")]
+
+
+@pytest.mark.parametrize("fallback", [{"torque": 1.0}, {"method": "bogus"}, {"rtol": -1},
+                                      {"kappa0": 1.0}, {"nonsense": 1}])
+def test_bad_fallback(tmp_path, fallback):
+    with pytest.raises(ParameterError):
+        run_sweep(Sweep.create({"torque": [0.5, 1.5]}, TINY), tmp_path / "h.nc", fallback=fallback)
+    assert not (tmp_path / "h.nc").exists()
+
+
+def test_cli_retry_failed(flaky, tmp_path, capsys):
+    out = tmp_path / "c.nc"
+    args = ["sweep", "--torque", "0.5,1.5", "--length", "2", "--time", "0.005", "--out", str(out), "--json"]
+    assert run(args) == 0 and json.loads(capsys.readouterr().out)["failed"] == 1
+    assert run(args + ["--retry-failed", "--fallback", "method=implicit"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert (rep["failed"], rep["retried"], rep["skipped"]) == (0, 1, 1)
+    for bad in (["--fallback", "torque=1"], ["--fallback", "method"]):
+        assert run(args + ["--retry-failed", *bad]) == 2
+        assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_resume_a_file_without_the_fallback_variable(flaky, tmp_path):
+    """Files of the previous format (no ``fallback``) resume; the variable is filled in."""
+    import h5py
+
+    path, sweep = tmp_path / "old.nc", Sweep.create({"torque": [0.5, 1.5]}, TINY)
+    run_sweep(sweep, path)
+    with h5py.File(path, "a") as f:
+        del f["fallback"]
+    report = run_sweep(sweep, path, retry_failed=True, fallback={"method": "implicit"})
+    assert (report.skipped, report.computed, report.failed) == (1, 1, 0)
+    assert list(read_sweep(path).data["fallback"]) == ["", json.dumps({"method": "implicit"})]
+
+
 def test_dask_cluster_on_loopback(reference, tmp_path, capsys):
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,

@@ -271,7 +271,7 @@ def _register_optional():
     """Commands that live next to their subject (theory, stability)."""
     import importlib
 
-    for module, names in ((".theory.cli", ("theory",)), (".analysis.stability_cli", ("COMMANDS",)), (".sweep_cli", ("COMMANDS",)), (".reproduce.cli", ("COMMANDS",))):
+    for module, names in ((".theory.cli", ("theory",)), (".analysis.stability_cli", ("COMMANDS",)), (".analysis.bifurcations_cli", ("COMMANDS",)), (".sweep_cli", ("COMMANDS",)), (".reproduce.cli", ("COMMANDS",))):
         try:
             mod = importlib.import_module(module, __package__)
         except ImportError:  # not part of this build
@@ -302,6 +302,10 @@ def run(argv=None) -> int:
         return 2
     except click.exceptions.Exit as exc:
         return exc.exit_code
+    except OSError as exc:  # the file system refused: not a directory, unwritable, disk full
+        where = f": {exc.filename}" if exc.filename else ""
+        click.echo(f"flagellum: error: {exc.strerror or exc}{where}", err=True)
+        return 2
     return 0
 
 

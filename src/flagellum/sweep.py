@@ -8,12 +8,16 @@ whole dataset is written to a temporary file that is renamed onto the output (at
 killed sweep loses at most the points in flight. ``resume=True`` keeps the finished points
 (matched by :func:`point_key`, a stable key of the swept values) and computes only the
 others; the dataset is ordered by the grid, so a resumed sweep equals an uninterrupted one.
+Failed points count as finished; ``retry_failed=True`` computes them again, and a
+``fallback`` of solver settings (e.g. ``{"method": "implicit"}``) is used for every retry,
+also at once for a point that fails in the same call.
 
 File layout (HDF5, netCDF-4-like: coordinates are HDF5 dimension scales):
 
 * one 1-D dataset per swept parameter (the coordinates, named ``dims`` in the attributes),
 * one grid-shaped dataset per variable (:data:`VARIABLES`: the :class:`Summary` fields,
-  ``regime``, ``steps``, ``wall_seconds``, ``status``), plus ``key`` ("" = not finished),
+  ``regime``, ``steps``, ``wall_seconds``, ``status``, ``fallback``), plus ``key`` ("" = not
+  finished),
 * attributes: each fixed parameter, ``fixed`` and ``dims`` (JSON), ``seeds``, ``version``,
   ``git_revision``, ``host``, ``python``, ``created``.
 
@@ -71,7 +75,12 @@ ALIASES = {"t_end": "time"}
 VARIABLES: dict[str, str] = {
     **{f.name: ("i8" if f.type in ("int", int) else "f8") for f in fields(Summary)},
     "regime": "str", "steps": "i8", "wall_seconds": "f8", "status": "str",
+    "fallback": "str",  #: JSON of the fallback settings that produced the point ("" = none)
 }
+#: variables that files of older versions lack (filled in on resume)
+_OPTIONAL = {"fallback"}
+#: what a fallback may change: solver settings only (the physics of a point stays fixed)
+FALLBACK_PARAMETERS = ("method", "rtol", "dt")
 _FILL = {"f8": math.nan, "i8": -1, "str": ""}
 FORMAT = "flagellum-sweep"
 MAX_POINTS = 1_000_000
@@ -368,6 +377,7 @@ class _Store:
         self.data = {n: np.full(sweep.shape, _FILL[k], dtype=object if k == "str" else k)
                      for n, k in VARIABLES.items()}
         self.keys = np.full(sweep.shape, "", dtype=object)
+        self.retry: set[int] = set()  #: failed points of the file to compute again
         fixed = dict(sweep.fixed)
         self.attrs = {**fixed, "format": FORMAT, "format_version": 1, "dims": json.dumps(sweep.dims),
                       "fixed": json.dumps(fixed, sort_keys=True), "seeds": np.array(sweep.seeds),
@@ -401,8 +411,10 @@ class _Store:
                         ds.dims[axis].attach_scale(f[dim])
 
     @classmethod
-    def open(cls, sweep: Sweep, path: Path, resume: bool, overwrite: bool) -> "_Store":
-        """A new store, holding the finished points of ``path`` when resuming."""
+    def open(cls, sweep: Sweep, path: Path, resume: bool, overwrite: bool,
+             retry_failed: bool = False) -> "_Store":
+        """A new store, holding the finished points of ``path`` when resuming (without the
+        failed ones with ``retry_failed``)."""
         store = cls(sweep, path)
         if not path.exists():
             return store
@@ -413,7 +425,7 @@ class _Store:
                                                    "or --overwrite to replace it)")
         old = read_sweep(path)
         if old.attrs.get("fixed") != store.attrs["fixed"] or set(old.dims) != set(sweep.dims) \
-                or not set(VARIABLES) <= set(old.data):
+                or not set(VARIABLES) - _OPTIONAL <= set(old.data):
             raise ParameterError("resume", str(path), "a sweep file with the same fixed parameters, "
                                                       "swept names and variables")
         done = {k: i for i, k in enumerate(old.data["key"].ravel()) if k}
@@ -424,8 +436,12 @@ class _Store:
                                                       f"finished point(s) off the new grid")
         for i, point in enumerate(points):
             j = done.get(point_key(point))
-            if j is not None:
-                store.put(i, point, {n: old.data[n].ravel()[j] for n in VARIABLES})
+            if j is None:
+                continue
+            if retry_failed and old.data["status"].ravel()[j] != "ok":
+                store.retry.add(i)
+            else:
+                store.put(i, point, {n: old.data[n].ravel()[j] for n in VARIABLES if n in old.data})
         return store
 
 
@@ -493,6 +509,23 @@ def _dask(scheduler: str | None, dask_local: int | None):
 # -- running ------------------------------------------------------------------------------
 
 
+def _check_fallback(sweep: Sweep, fallback: Mapping | None) -> dict:
+    """Validated fallback settings: solver parameters only, none of them swept."""
+    out = {}
+    for name, value in (fallback or {}).items():
+        key = canonical_name(name)
+        if key not in FALLBACK_PARAMETERS or key in sweep.dims:
+            raise ParameterError("fallback", name, "one of " + ", ".join(FALLBACK_PARAMETERS)
+                                 + " (solver settings that are not swept)")
+        out[key] = _convert(key, value)
+    if out:
+        from .simulator import SolverOptions
+
+        SolverOptions(**{**out, **({"atol": out["rtol"] * 1e-2} if "rtol" in out else {})})
+    return out
+
+
+
 @dataclass(frozen=True)
 class SweepReport:
     """Outcome of :func:`run_sweep` (counts of grid points)."""
@@ -503,6 +536,7 @@ class SweepReport:
     computed: int  #: simulated by this call
     skipped: int  #: already finished in the file (resume)
     lost: int  #: whose worker died: not finished, a resume retries them
+    retried: int  #: failed points computed again (``retry_failed``, ``fallback``)
     output: str
     wall_seconds: float
 
@@ -512,7 +546,8 @@ class SweepReport:
 
 def run_sweep(sweep: Sweep, out: str | Path, *, resume: bool = False, overwrite: bool = False,
               workers: int | None = None, scheduler: str | None = None,
-              dask_local: int | None = None, progress: bool | None = None) -> SweepReport:
+              dask_local: int | None = None, progress: bool | None = None,
+              retry_failed: bool = False, fallback: Mapping | None = None) -> SweepReport:
     """Run every point of ``sweep`` not yet finished in ``out`` and write the dataset.
 
     Parameters
@@ -526,6 +561,10 @@ def run_sweep(sweep: Sweep, out: str | Path, *, resume: bool = False, overwrite:
     scheduler : address of a ``dask.distributed`` scheduler, e.g. ``tcp://host:8786``.
     dask_local : start a local dask cluster of this many single-threaded worker processes.
     progress : tqdm bar on stderr (default: when stderr is a terminal).
+    retry_failed : resume, and compute the failed points of ``out`` again.
+    fallback : solver settings (:data:`FALLBACK_PARAMETERS`, e.g. ``{"method": "implicit"}``
+        or ``{"rtol": 1e-8}``) for retries: the failed points of ``out`` (``retry_failed``)
+        and, once, every point that fails in this call. Recorded per point in ``fallback``.
     """
     t0 = time.perf_counter()
     if scheduler is not None and dask_local is not None:
@@ -533,21 +572,25 @@ def run_sweep(sweep: Sweep, out: str | Path, *, resume: bool = False, overwrite:
     for name, n in (("workers", workers), ("dask_local", dask_local)):
         if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
             raise ParameterError(name, n, "an integer ≥ 1")
-    store = _Store.open(sweep, Path(out), resume, overwrite)
+    fallback = _check_fallback(sweep, fallback)
+    resume = resume or retry_failed
+    store = _Store.open(sweep, Path(out), resume, overwrite, retry_failed)
     skipped = int(store.finished.sum())
     points, tasks, invalid = sweep.points(), [], None
     for i, point in enumerate(points):
         if store.finished.flat[i]:
             continue
+        fb = i in store.retry and bool(fallback)
         try:  # invalid parameters fail at once, without a worker
-            PointRun.from_values(sweep.values(point))
-            tasks.append(i)
+            PointRun.from_values({**sweep.values(point), **(fallback if fb else {})})
+            tasks.append((i, fb))
         except FlagellumError as exc:
             invalid = invalid or exc
             store.put(i, point, {"status": _one_line(exc), "wall_seconds": 0.0})
     if invalid is not None and not tasks and skipped == 0:
         raise invalid  # no valid point at all: a bad input, not a sweep
     computed = lost = 0
+    retried = len(store.retry)
     if not tasks:
         store.save()
     else:
@@ -560,23 +603,30 @@ def run_sweep(sweep: Sweep, out: str | Path, *, resume: bool = False, overwrite:
                 tqdm(total=sweep.size, initial=sweep.size - len(tasks), unit="pt", desc="sweep",
                      dynamic_ncols=True, disable=not show) as bar:
             store.save()  # the grid, once the workers are reachable
-            futures = {submit(run_point, sweep.values(points[i])): i for i in tasks}
-            for fut in as_completed(futures):
-                i = futures[fut]
-                try:
-                    result = fut.result()
-                except Exception:  # the worker died (not the simulation): retried on resume
-                    lost += 1
-                    continue
-                store.put(i, points[i], result)
-                store.save()
-                computed += 1
-                bar.update(1)
+            while tasks:  # round 1: the points; round 2: their retries with the fallback
+                futures = {submit(run_point, {**sweep.values(points[i]), **(fallback if fb else {})}):
+                           (i, fb) for i, fb in tasks}
+                tasks = []
+                for fut in as_completed(futures):
+                    i, fb = futures[fut]
+                    try:
+                        result = fut.result()
+                    except Exception:  # the worker died (not the simulation): retried on resume
+                        lost += 1
+                        continue
+                    if result.get("status") != "ok" and fallback and not fb:
+                        tasks.append((i, True))
+                        retried += 1
+                        continue
+                    store.put(i, points[i], {**result, "fallback": json.dumps(fallback) if fb else ""})
+                    store.save()
+                    computed += 1
+                    bar.update(1)
     status = store.data["status"][store.finished]
     return SweepReport(points=sweep.size, finished=int(store.finished.sum()),
                        failed=int(np.sum(status != "ok")), computed=computed, skipped=skipped,
-                       lost=lost, output=str(out), wall_seconds=time.perf_counter() - t0)
+                       lost=lost, retried=retried, output=str(out), wall_seconds=time.perf_counter() - t0)
 
 
-__all__ = ["PARAMETERS", "VARIABLES", "Sweep", "SweepData", "SweepReport", "PointRun",
+__all__ = ["FALLBACK_PARAMETERS", "PARAMETERS", "VARIABLES", "Sweep", "SweepData", "SweepReport", "PointRun",
            "canonical_name", "parse_values", "point_key", "read_sweep", "run_point", "run_sweep"]

@@ -5,7 +5,8 @@ from __future__ import annotations
 import click
 
 from .cli import _FLAG_HELP, emit_json, emit_table
-from .sweep import PARAMETERS, Sweep, parse_values, run_sweep
+from .errors import ParameterError
+from .sweep import FALLBACK_PARAMETERS, PARAMETERS, Sweep, parse_values, run_sweep
 
 _HELP = {
     **_FLAG_HELP,
@@ -43,12 +44,17 @@ def parameter_options(func):
               help="output HDF5 dataset (e.g. results.nc)")
 @click.option("--resume", is_flag=True, help="keep the finished points of --out, compute the rest")
 @click.option("--overwrite", is_flag=True, help="replace an existing --out")
+@click.option("--retry-failed", is_flag=True, help="resume, computing the failed points again")
+@click.option("--fallback", multiple=True, metavar="NAME=VALUE",
+              help="solver setting for retries (" + ", ".join(FALLBACK_PARAMETERS) + "; repeatable), "
+                   "e.g. method=implicit: failed points are run once more with it")
 @click.option("--workers", type=int, default=None, help="local worker processes (default: all cores)")
 @click.option("--scheduler", default=None, help="run on this dask scheduler (tcp://host:port)")
 @click.option("--dask-local", type=int, default=None, help="run on a local dask cluster of N workers")
 @click.option("--json", "as_json", is_flag=True, help="no progress bar; print one JSON object")
 @click.pass_context
-def sweep(ctx, config, out, resume, overwrite, workers, scheduler, dask_local, as_json, **kwargs):
+def sweep(ctx, config, out, resume, overwrite, retry_failed, fallback, workers, scheduler,
+          dask_local, as_json, **kwargs):
     """Run a grid of simulations (CONFIG: TOML with [fixed] and [ranges]; flags override it).
 
     Each parameter flag takes a range start:stop:step (stop included when on the grid), a
@@ -62,9 +68,16 @@ def sweep(ctx, config, out, resume, overwrite, workers, scheduler, dask_local, a
         values = parse_values(name, text)
         (ranges if len(values) > 1 else fixed)[name] = values if len(values) > 1 else values[0]
     base = Sweep.from_toml(config) if config is not None else Sweep()
+    settings = {}
+    for item in fallback:
+        name, eq, value = item.partition("=")
+        if not eq or not name.strip():
+            raise ParameterError("fallback", item, "NAME=VALUE, e.g. method=implicit")
+        settings[name.strip()] = value
     report = run_sweep(base.updated(ranges, fixed), out, resume=resume, overwrite=overwrite,
                        workers=workers, scheduler=scheduler, dask_local=dask_local,
-                       progress=False if as_json else None)
+                       progress=False if as_json else None, retry_failed=retry_failed,
+                       fallback=settings)
     if as_json:
         emit_json(report.to_dict())
     else:

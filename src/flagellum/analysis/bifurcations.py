@@ -1,0 +1,393 @@
+"""The two bifurcations of the driven filament (paper §3.1, Fig. 3(a), Fig. 4(d)).
+
+* **M_c1**, the buckling threshold (supercritical Hopf): the root of the growth rate λ(M)
+  of the aligned state (:func:`flagellum.analysis.stability.critical_torque`); its
+  uncertainty is the tolerance of that root search. Optionally confirmed by two
+  simulations, at M_c1(1 ∓ δ), which must be aligned and buckled.
+* **M_c2**, where the buckled state itself becomes unstable and starts to collapse
+  periodically (regime (iv), paper ≈ 4.2 pN·µm), from simulations classified by
+  :func:`flagellum.analysis.regimes.decide` (σ jumps there, Fig. 4(d)): a coarse scan of
+  independent runs (in parallel), then k-section (bisection with one worker) between the
+  last buckled and the first oscillating torque until the bracket is below ``tol``.
+  M_c2 is the bracket's midpoint, its uncertainty half the bracket.
+* **Hysteresis** (optional): a sweep up and a sweep down through the scan torques, each
+  run continuing from the previous run's final state, each refined by bisection that
+  continues from the state on its own branch. M_c2_up ≠ M_c2_down beyond their
+  uncertainties means hysteresis.
+
+The simulation is a function ``simulate(torque, state) -> (probe, state)``
+(:class:`RunConfig` for the real filament), so the search logic can be tested against a
+cheap stand-in. Fresh runs follow the paper's protocol (§3.1.2) above ``step_from``: rotate
+aligned at M = 1 pN·µm, then step to M within 0.01 s; the window is the last half after
+the step.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import math
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from ..errors import ParameterError, SimulationError
+from ..motor import Boundary
+from ..params import Params, check_choice, check_range, positive
+from .regimes import decide, measure
+
+#: per quality: scan torques (lo, hi, step) [pN·µm], simulated time after the step [s], tol
+QUALITIES = {
+    "quick": {"torques": (3.0, 5.5, 0.5), "t_end": 0.3, "tol": 0.1},
+    "full": {"torques": (2.5, 5.5, 0.25), "t_end": 0.8, "tol": 0.025},
+}
+PAPER = {"M_c1": 1.1, "M_c2": 4.2}  #: §3.1.1, Fig. 3 caption [pN·µm]
+LOWER, UPPER = "buckled", "oscillating"  #: the regimes on either side of M_c2
+MAX_ROUNDS = 12
+
+#: ``simulate(torque, state) -> (probe dict, final state)``; state None = a fresh run
+Simulate = Callable[[float, Any], "tuple[dict, Any]"]
+
+
+# -- the real simulation ------------------------------------------------------------------
+def _rotate_z(v: np.ndarray, angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    out = np.array(v, float, copy=True)
+    out[..., 0], out[..., 1] = c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]
+    return out
+
+
+def lab_state(sim) -> tuple:
+    """(y, charts) of a simulator, turned from its co-rotating frame (``sim.frame_angle``)
+    into the lab frame; y holds the hook tangent, then (position, angle) per bead."""
+    y, (ref_u, ref_e, ref_m) = sim.y.copy(), sim.model.charts()
+    a = sim.frame_angle
+    y[:3] = _rotate_z(y[:3], a)
+    body = y[3:].reshape(-1, 4)
+    body[:, :3] = _rotate_z(body[:, :3], a)
+    return y, (_rotate_z(ref_u, a), _rotate_z(ref_e, a), ref_m)
+
+
+def start_from(sim, state: tuple) -> None:
+    """Make a fresh simulator (t = 0, frame angle 0: its frame is the lab) continue from a
+    :func:`lab_state`; the material angles are relative to the charts, so both are set."""
+    y, charts = state
+    if sim.t != 0.0 or sim.frame_angle != 0.0 or y.shape != sim.y.shape:
+        raise ParameterError("state", f"{y.shape}", f"a state of shape {sim.y.shape} for a fresh simulator")
+    sim.y = np.array(y, float, copy=True)
+    sim.model.set_charts(*charts)
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """One deterministic run at a torque, classified: the ``simulate`` of the search."""
+
+    params: Params = field(default_factory=Params)
+    boundary: Boundary = field(default_factory=Boundary)
+    t_end: float = 0.3  #: simulated time at the final torque [s]
+    step_from: float = 2.0  #: fresh runs at M ≥ this start aligned at M = 1 and step (§3.1.2)
+    t_step: float = 0.05
+    window: float = 0.5  #: averaging window: this fraction of the run at the final torque
+    samples: int = 600
+    rtol: float = 1e-6
+
+    def __call__(self, torque: float, state: tuple | None = None) -> tuple[dict, tuple | None]:
+        from ..helix import Helix
+        from ..motor import Motor
+        from ..simulator import Simulator, SolverOptions
+
+        M = float(torque)
+        if state is None and M >= self.step_from:
+            motor = Motor(M, schedule=((0.0, 1.0), (self.t_step, 1.0), (self.t_step + 0.01, M)))
+            t_start = self.t_step + 0.01
+        else:
+            motor, t_start = Motor(M), 0.0
+        t_total = t_start + self.t_end
+        # the co-rotating frame fails with CVODE at large torques (and after a step)
+        frames = ("lab", "auto") if (state is not None or M >= self.step_from) else ("auto", "lab")
+        wall0, err = time.perf_counter(), None
+        for frame in frames:
+            sim = Simulator(self.params, motor, self.boundary,
+                            solver=SolverOptions(rtol=self.rtol, atol=self.rtol * 1e-2, frame=frame))
+            if state is not None:
+                start_from(sim, state)
+            try:
+                tr = sim.run(t_total, save_every=t_total / self.samples, progress=False)
+                err = None
+                break
+            except SimulationError as exc:
+                err = f"{frame} frame: {exc}"
+            except ParameterError:
+                raise
+            except (ArithmeticError, RuntimeError, ValueError) as exc:  # e.g. raised in the rhs
+                err = f"{frame} frame: {type(exc).__name__}: {exc}"
+        probe = {"torque": M, "t_end": self.t_end, "continued": state is not None,
+                 "wall_seconds": time.perf_counter() - wall0}
+        if err is not None:
+            return {**probe, "regime": "failed", "error": " ".join(err.split())[:300]}, None
+        t_from = t_total - self.window * self.t_end
+        m = measure(tr.t, tr.thrust, tr.positions, Helix.from_filament(self.params.filament).radius, t_from)
+        sel = tr.t >= t_from - 1e-12
+        probe.update({"regime": decide(m), "sigma_over_sigma0": m.sigma_over_sigma0,
+                      "thrust": m.thrust_mean, "thrust_min": float(tr.thrust[sel].min()),
+                      "thrust_max": float(tr.thrust[sel].max()), "swings": m.swings,
+                      "centroid_offset": m.centroid_offset, "frame": frame})
+        return probe, lab_state(sim)
+
+
+# -- the search (independent of the simulation) ------------------------------------------
+def _probe_task(arg) -> dict:
+    simulate, torque, direction = arg
+    return {**simulate(torque, None)[0], "direction": direction}
+
+
+def _failed(torque, direction, exc) -> dict:
+    return {"torque": float(torque), "regime": "failed", "direction": direction,
+            "error": f"{type(exc).__name__}: {exc}"[:300]}
+
+
+@contextmanager
+def _executor(workers: int):
+    """(submit, as_completed): in-process for one worker, else the sweep engine's pool."""
+    if workers <= 1:
+        def submit(fn, arg):
+            fut = concurrent.futures.Future()
+            try:
+                fut.set_result(fn(arg))
+            except Exception as exc:  # noqa: BLE001 - delivered through the future
+                fut.set_exception(exc)
+            return fut
+
+        yield submit, concurrent.futures.as_completed
+    else:
+        from ..sweep import _local_pool
+
+        with _local_pool(workers) as pair:
+            yield pair
+
+
+class _Runner:
+    """Submits probe tasks, keeps every probe, reports progress and each finished probe."""
+
+    def __init__(self, submit, as_completed, workers: int, bar=None, on_probe=None):
+        self.submit, self.as_completed, self.workers = submit, as_completed, workers
+        self.bar, self.on_probe, self.probes = bar, on_probe, []
+
+    def start(self, fn, args: list, total: int | None = None) -> dict:
+        if self.bar is not None:
+            self.bar.total = (self.bar.total or 0) + (len(args) if total is None else total)
+            self.bar.refresh()
+        return {self.submit(fn, a): (fn, a) for a in args}
+
+    def collect(self, futures: dict, count: Callable[[Any], int] = lambda r: 1) -> list:
+        out = {}
+        for fut in self.as_completed(futures):
+            fn, arg = futures[fut]
+            try:
+                res = fut.result()
+            except Exception as exc:  # noqa: BLE001 - a dead worker, not a simulation failure
+                res = (_failed(arg[1], arg[2], exc) if fn is _probe_task else
+                       {"direction": arg[2], "probes": [], "note": f"{type(exc).__name__}: {exc}"})
+            out[fut] = res
+            for p in res.get("probes", [res]):
+                self.probes.append(p)
+            if self.bar is not None:  # a chain may run more probes than announced
+                self.bar.total = max(self.bar.total, self.bar.n + count(res))
+                self.bar.update(count(res))
+            if self.on_probe is not None:
+                self.on_probe(self.probes)
+        return [out[f] for f in futures]
+
+    def probe(self, simulate, torques, direction) -> list[dict]:
+        return self.collect(self.start(_probe_task, [(simulate, float(m), direction) for m in torques]))
+
+
+def bracket(probes: list[dict]) -> tuple[float | None, float | None, str | None]:
+    """(last buckled, first oscillating) torques of a set of fresh runs, and a note."""
+    upper = sorted(p["torque"] for p in probes if p["regime"] == UPPER)
+    lower = sorted(p["torque"] for p in probes if p["regime"] == LOWER)
+    if not upper:
+        return None, None, "no oscillating run (raise the torque range or --t-end)"
+    hi = upper[0]
+    below = [m for m in lower if m < hi]
+    if not below:
+        return None, hi, "no buckled run below the first oscillating torque (lower the torque range)"
+    above = [m for m in lower if m > hi]
+    note = (f"regimes not monotonic in M: buckled at {', '.join(f'{m:g}' for m in above)} above the "
+            "first oscillating torque (runs too short?)") if above else None
+    return below[-1], hi, note
+
+
+def refine(runner: _Runner, simulate: Simulate, lo: float, hi: float, tol: float) -> tuple[float, float, str | None]:
+    """Shrink [lo, hi] (lo buckled, hi oscillating) by k-section with k = workers until
+    hi − lo ≤ tol; stops early when a round decides nothing (failed or other regimes)."""
+    for _ in range(MAX_ROUNDS):
+        if hi - lo <= tol:
+            return lo, hi, None
+        k = max(1, runner.workers)
+        inner = [lo + (hi - lo) * (i + 1) / (k + 1) for i in range(k)]
+        new = runner.probe(simulate, inner, "bisect")
+        known = [p for p in new if p["regime"] in (LOWER, UPPER)]
+        nlo, nhi, _ = bracket([{"torque": lo, "regime": LOWER}, *known, {"torque": hi, "regime": UPPER}])
+        if (nlo, nhi) == (lo, hi):
+            return lo, hi, ("refinement stopped: runs at " + ", ".join(f"{p['torque']:.4g} ({p['regime']})"
+                                                                   for p in new) + " decide nothing")
+        lo, hi = nlo, nhi
+    return lo, hi, None
+
+
+def continuation(simulate: Simulate, torques, direction: str, tol: float) -> dict:
+    """Sweep ``torques`` in order, each run from the previous final state, then bisect the
+    first buckled→oscillating (``up``) or oscillating→buckled (``down``) transition, each
+    probe continuing from the last state on the side the sweep came from."""
+    src, dst = (LOWER, UPPER) if direction == "up" else (UPPER, LOWER)
+    probes, state, last_src = [], None, None
+    lo = hi = src_state = None
+    for M in torques:
+        p, s = simulate(float(M), state)
+        p = {**p, "direction": direction}
+        probes.append(p)
+        state = s if p["regime"] != "failed" else state
+        if p["regime"] == src:
+            last_src = (p["torque"], s)
+        elif p["regime"] == dst and last_src is not None and lo is None:
+            (lo, hi), src_state = sorted((last_src[0], p["torque"])), last_src[1]
+    if lo is None:
+        return {"direction": direction, "probes": probes, "M_c2": None, "uncertainty": None,
+                "bracket": None, "note": f"no {src} → {dst} transition along the sweep"}
+    note = None
+    for _ in range(MAX_ROUNDS):
+        if hi - lo <= tol:
+            break
+        mid = 0.5 * (lo + hi)
+        p, s = simulate(mid, src_state)
+        probes.append({**p, "direction": direction})
+        if p["regime"] not in (src, dst):
+            note = f"bisection stopped: {p['regime']} at M = {mid:.4g}"
+            break
+        moves_src_side = p["regime"] == src
+        if moves_src_side:
+            src_state = s
+        if (direction == "up") == moves_src_side:
+            lo = mid
+        else:
+            hi = mid
+    return {"direction": direction, "probes": probes, "M_c2": 0.5 * (lo + hi),
+            "uncertainty": 0.5 * (hi - lo), "bracket": [lo, hi], "note": note}
+
+
+def _chain_task(arg) -> dict:
+    simulate, torques, direction, tol = arg
+    return continuation(simulate, torques, direction, tol)
+
+
+def critical(params: Params, boundary: Boundary, xtol: float = 1e-3) -> dict:
+    """M_c1 from linear stability, the bracket widened upwards (a load sphere raises M_c1)."""
+    from .stability import critical_torque
+
+    lo, hi, last = 0.5, 2.0, None
+    for _ in range(5):
+        try:
+            ct = critical_torque(params, boundary, (lo, hi), xtol)
+            return {"M_c1": ct.critical_torque, "M_c1_uncertainty": xtol, "F_c1": ct.critical_force}
+        except ParameterError as exc:
+            if exc.name != "bracket":
+                raise
+            last, lo, hi = str(exc), hi, 2 * hi
+    return {"M_c1": None, "M_c1_uncertainty": None, "F_c1": None, "M_c1_note": last}
+
+
+# -- the whole analysis -------------------------------------------------------------------
+def scan_torques(quality: str = "quick", torque_range: str | None = None) -> tuple[float, ...]:
+    """Torques of the coarse scan: ``lo:hi`` (the quality's step) or ``lo:hi:step``."""
+    from ..sweep import parse_values
+
+    check_choice("quality", quality, tuple(QUALITIES))
+    lo, hi, step = QUALITIES[quality]["torques"]
+    text = torque_range if torque_range is not None else f"{lo}:{hi}:{step}"
+    parts = str(text).split(":")
+    if len(parts) == 2:
+        text = f"{text}:{step}"
+    elif len(parts) != 3:
+        raise ParameterError("torque_range", torque_range, "lo:hi or lo:hi:step [pN·µm]")
+    values = sorted(parse_values("torque", text))
+    if len(values) < 2:
+        raise ParameterError("torque_range", torque_range, "at least two torques (lo < hi)")
+    for m in values:
+        check_range("torque", m, 0.0, 1e3)
+    return tuple(values)
+
+
+def bifurcations(params: Params | None = None, boundary: Boundary | None = None, *,
+                 quality: str = "quick", torque_range: str | None = None, t_end: float | None = None,
+                 tol: float | None = None, hysteresis: bool = False, mc2: bool = True,
+                 confirm_mc1: float | None = None, workers: int = 1, progress: bool = False,
+                 on_probe: Callable[[list], None] | None = None,
+                 simulate: Simulate | None = None) -> dict:
+    """M_c1, M_c2 with uncertainties, optional hysteresis, and the regime of every probe.
+
+    ``simulate`` replaces the simulation (tests); ``on_probe(probes)`` is called after
+    every finished probe (used to write partial results).
+    """
+    wall0 = time.perf_counter()
+    params, boundary = params or Params(), boundary or Boundary()
+    q = QUALITIES[check_choice("quality", quality, tuple(QUALITIES))]
+    torques = scan_torques(quality, torque_range)
+    t_end = positive("t_end", q["t_end"] if t_end is None else t_end, 100.0)
+    tol = positive("tol", q["tol"] if tol is None else tol, 10.0)
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ParameterError("workers", workers, "an integer ≥ 1")
+    if confirm_mc1 is not None:
+        confirm_mc1 = check_range("confirm_mc1", confirm_mc1, 0.0, 0.9)
+    simulate = simulate or RunConfig(params, boundary, t_end)
+
+    out = {"quality": quality, "sphere_radius": boundary.sphere_radius, "t_end": t_end, "tol": tol,
+           "scan_torques": list(torques), "paper": PAPER}
+    from tqdm import tqdm
+
+    n_chain = len(torques) if hysteresis and mc2 else 0
+    workers = min(workers, len(torques) + 2)
+    with _executor(workers) as (submit, as_completed), \
+            tqdm(total=0, unit="run", desc="bifurcations", dynamic_ncols=True, disable=not progress) as bar:
+        runner = _Runner(submit, as_completed, workers, bar, on_probe)
+        # independent runs go to the pool first (long chains first); M_c1 meanwhile here
+        chains = runner.start(_chain_task, [(simulate, torques, "up", tol), (simulate, torques[::-1], "down", tol)],
+                              total=2 * n_chain) if n_chain else {}
+        scan = runner.start(_probe_task, [(simulate, float(m), "scan") for m in torques]) if mc2 else {}
+        out.update(critical(params, boundary))
+        out["M_c1_method"] = "linear stability: root of λ(M) (uncertainty = root tolerance)"
+        if confirm_mc1 is not None and out["M_c1"] is not None:
+            below, above = runner.probe(simulate, [out["M_c1"] * (1 + s * confirm_mc1) for s in (-1, 1)], "confirm")
+            out["M_c1_confirmed"] = below["regime"] == "aligned" and above["regime"] in (LOWER, UPPER)
+        first = runner.collect(scan)
+        if mc2:
+            lo, hi, note = bracket(first)
+            if lo is not None:
+                lo, hi, note2 = refine(runner, simulate, lo, hi, tol)
+                note = "; ".join(n for n in (note, note2) if n) or None
+                out.update({"M_c2": 0.5 * (lo + hi), "M_c2_uncertainty": 0.5 * (hi - lo),
+                            "M_c2_bracket": [lo, hi]})
+            else:
+                out.update({"M_c2": None, "M_c2_uncertainty": None, "M_c2_bracket": None})
+            if note:
+                out["M_c2_note"] = note
+            for res in runner.collect(chains, count=lambda r: len(r.get("probes", []))):
+                d = res["direction"]
+                out[f"M_c2_{d}"], out[f"M_c2_{d}_uncertainty"] = res.get("M_c2"), res.get("uncertainty")
+                if res.get("note"):
+                    out[f"M_c2_{d}_note"] = res["note"]
+            if n_chain:
+                up, down = out.get("M_c2_up"), out.get("M_c2_down")
+                out["hysteresis"] = (None if up is None or down is None else
+                                     abs(up - down) > out["M_c2_up_uncertainty"] + out["M_c2_down_uncertainty"])
+    order = {"confirm": 0, "scan": 1, "bisect": 1, "up": 2, "down": 3}
+    out["probes"] = sorted(runner.probes, key=lambda p: (order.get(p["direction"], 4),
+                                                          p["torque"] if order.get(p["direction"]) in (0, 1) else 0))
+    out["wall_seconds"] = time.perf_counter() - wall0
+    return out
+
+
+__all__ = ["QUALITIES", "RunConfig", "bifurcations", "bracket", "continuation", "critical",
+           "lab_state", "refine", "scan_torques", "start_from"]

@@ -1,0 +1,76 @@
+"""CLI command ``flagellum bifurcations`` (registered by :mod:`flagellum.cli` from :data:`COMMANDS`)."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import click
+
+from ..cli import _jsonable, emit_json, emit_table, param_options, params_from_cli
+from .bifurcations import QUALITIES, bifurcations as find
+from .stability_cli import boundary_from_cli, boundary_options
+
+
+def _writer(out, head: dict):
+    """Write the partial result atomically after every finished probe."""
+    from ..io import atomic_write_text
+
+    def write(obj):
+        atomic_write_text(out, json.dumps(_jsonable(obj), indent=2) + "\n")
+
+    return (lambda probes: write({**head, "complete": False, "probes": probes})), write
+
+
+@click.command("bifurcations")
+@param_options
+@boundary_options
+@click.option("--torque-range", default=None, metavar="LO:HI[:STEP]",
+              help="torques of the coarse M_c2 scan [pN·µm] (default quick 3:5.5:0.5, full 2.5:5.5:0.25)")
+@click.option("--t-end", type=float, default=None,
+              help="simulated time per run after the torque step [s] (default quick 0.3, full 0.8)")
+@click.option("--quality", type=click.Choice(list(QUALITIES)), default="quick", show_default=True)
+@click.option("--tol", type=float, default=None,
+              help="stop bisecting when the M_c2 bracket is this narrow [pN·µm] (default quick 0.1, full 0.025)")
+@click.option("--hysteresis", is_flag=True,
+              help="also sweep up and down by continuation and compare M_c2_up with M_c2_down")
+@click.option("--confirm-mc1", type=float, default=None, metavar="DELTA",
+              help="simulate at M_c1(1 ∓ DELTA), expecting aligned and buckled")
+@click.option("--mc1-only", is_flag=True, help="only M_c1 (linear stability, seconds)")
+@click.option("--workers", type=int, default=None, help="worker processes (default: all cores)")
+@click.option("--out", "-o", type=click.Path(dir_okay=False), default=None,
+              help="write the JSON result here (atomically, also after every run)")
+@click.option("--json", "as_json", is_flag=True, help="print one JSON object (no progress bar)")
+def bifurcations(torque_range, t_end, quality, tol, hysteresis, confirm_mc1, mc1_only, workers,
+                 out, as_json, **kwargs):
+    """Bifurcation torques: M_c1 (buckling) and M_c2 (oscillating buckled state), paper §3.1.
+
+    M_c1 from linear stability; M_c2 from a scan of simulations classified by regime,
+    refined by bisection (uncertainty: half the final bracket). Prints the regime found at
+    every torque probed.
+    """
+    import os
+
+    boundary = boundary_from_cli(kwargs)
+    params = params_from_cli(kwargs)
+    head = {"quality": quality, "sphere_radius": boundary.sphere_radius}
+    partial, write = _writer(out, head) if out else (None, None)
+    res = find(params, boundary, quality=quality, torque_range=torque_range, t_end=t_end, tol=tol,
+               hysteresis=hysteresis, mc2=not mc1_only, confirm_mc1=confirm_mc1,
+               workers=workers if workers is not None else (os.cpu_count() or 1),
+               progress=not as_json and sys.stderr.isatty(), on_probe=partial)
+    if write is not None:
+        write({**res, "complete": True})
+    if as_json:
+        emit_json(res)
+        return
+    probes = res.pop("probes")
+    emit_table({k: v for k, v in res.items() if k not in ("paper", "scan_torques")},
+               "flagellum bifurcations (pN·µm; paper: M_c1 ≈ 1.1, M_c2 ≈ 4.2)")
+    click.echo("probes: torque  regime  σ/σ0  thrust [pN]  direction")
+    for p in probes:
+        click.echo(f"  {p['torque']:8.4f}  {p['regime']:<12} {p.get('sigma_over_sigma0', float('nan')):6.3f}"
+                   f"  {p.get('thrust', float('nan')):8.4f}  {p['direction']}")
+
+
+COMMANDS = [bifurcations]

@@ -47,6 +47,12 @@ def test_effective_rigidity_json(capsys):
     alpha = math.atan2(2.1, 1.3)
     expect = 2 * 3.5 * math.sin(alpha) / (1 + math.sin(alpha) ** 2 + 0.5 * math.cos(alpha) ** 2)
     assert d2["A_eff"] == pytest.approx(expect, rel=1e-12)
+    assert "A_eff_measured" not in d2
+
+
+def test_effective_rigidity_measured(capsys):
+    d = _json(capsys, "effective-rigidity", "--measure")
+    assert d["A_eff_measured"] == pytest.approx(d["A_eff"], rel=0.01)   # measured −0.3 %
 
 
 def test_rigid_helix_json(capsys):

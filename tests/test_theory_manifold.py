@@ -115,3 +115,21 @@ def test_compute_manifold_small_grid(tmp_path):
     assert (tmp_path / "manifold.png").stat().st_size > 10000
     summ = res.summary()
     assert summ["with_radius_correction"]["anchored"]["M"] < summ["without_radius_correction"]["anchored"]["M"]
+
+
+def test_anchored_gap_to_the_filament_is_its_thrust_per_torque():
+    # M_c1 = F_c1/(F/M) on the anchored line. The discrete filament (stability analysis,
+    # docs/stability.md: M_c1 = 1.066, F_c1 = 1.014 at N = 50) is pinned at its first bead,
+    # R off the helix axis, so its F/M at threshold is 0.951/µm against App. A's 1.021/µm.
+    # With the filament's F/M the rod theory lands within 3 % of its M_c1 (−8.4 % without).
+    from flagellum.analysis.stability import relative_equilibrium
+
+    M_c1_filament = 1.066
+    ratio = relative_equilibrium(Params(), M_c1_filament).thrust / M_c1_filament
+    assert ratio == pytest.approx(0.951, abs=0.003)
+    assert -ROD.c_par / ROD.b_par == pytest.approx(1.0213, abs=1e-4)
+    plain = load_sphere_curve(ROD, [0.0]).table()
+    fixed = load_sphere_curve(ROD.with_thrust_per_torque(ratio), [0.0]).table()
+    assert plain["M"][0] == pytest.approx(0.976, abs=0.002)
+    assert fixed["M"][0] == pytest.approx(M_c1_filament, rel=0.03)
+    assert fixed["F"][0] == pytest.approx(plain["F"][0], rel=0.01)   # F_c1 hardly moves

@@ -5,6 +5,7 @@
 * :mod:`.manifold` — the critical manifold, the plane of eq. (plane) and the critical
   torque of the filament with a load sphere (Fig. 7, Fig. 6a),
 * :mod:`.rigid_helix` — precession of a rigid helix under a constant torque (App. B).
+* :mod:`.effective_rigidity` — A_eff of App. C, checked by end moments on the discrete rod.
 """
 
 from .buckling import (BucklingProblem, CriticalPoint, NoConvergenceError,

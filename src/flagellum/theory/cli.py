@@ -14,7 +14,7 @@ import numpy as np
 from .. import cli as _main
 from ..cli import emit_json, emit_table, param_options, params_from_cli
 from ..errors import ParameterError
-from ..params import check_real
+from ..params import check_range, check_real
 
 #: Helix geometries of App. C (Fig. 8): normal form (peritrichous) and monotrichous.
 GEOMETRIES = {"normal": (1.3, 2.1), "monotrichous": (2.2, 2.5)}
@@ -102,7 +102,7 @@ def manifold(out_dir, m_max, m_steps, f_par_max, f_par_steps, inv_a_max, inv_a_s
              workers, as_json, **kwargs):
     """Critical manifold, buckling curves, plane of eq. (plane) and M_c1(1/a) (Fig. 7)."""
     from .buckling import BASES
-    from ..params import check_choice, check_range
+    from ..params import check_choice
     from .manifold import compute_manifold, write_manifold
 
     params = params_from_cli(kwargs)
@@ -151,7 +151,8 @@ def rigid_helix(torque, tilt, t_end, origin, as_json, **kwargs):
     evals = np.linalg.eigvalsh(B)
     b_perp = float(np.mean(evals[1:]))
     predicted = abs(torque) / b_perp
-    t_end = 2 * 2 * math.pi / predicted if t_end is None else t_end
+    period = 2 * math.pi / predicted
+    t_end = 2 * period if t_end is None else check_range("time", t_end, 1e-6 * period, 100 * period)
     run = rotate(B, [0.0, 0.0, torque], t_end, R0=rot_x(math.radians(tilt)), n_out=2001)
     m2, p = run.torque_squared, run.dissipation
     out = {"B": B, "B_eigenvalues": evals, "torque": torque, "tilt_deg": tilt, "time": t_end,
@@ -173,12 +174,11 @@ def effective_rigidity_summary(params) -> dict:
 
     def scales(p):
         rod = HelicalRod.from_params(p)
-        A_perp = rod.a_perp * rod.L0   # whole filament, eq. (A.5)
         return {"kappa0": p.filament.kappa0, "tau0": p.filament.tau0,
                 "pitch_angle_deg": math.degrees(rod.pitch_angle), "L0": rod.L0,
-                "A_eff": rod.A_eff, "A_eff_over_L0": rod.torque_scale, "A_perp": A_perp,
-                "torque_scale": rod.torque_scale,
-                "rate_scale": rod.A_eff / (rod.L0**3 * A_perp / 3)}
+                "A_eff": rod.A_eff, "A_eff_over_L0": rod.torque_scale,
+                "A_perp": rod.a_perp * rod.L0,   # whole filament, eq. (A.5)
+                "torque_scale": rod.torque_scale, "rate_scale": rod.master_rate_scale}
 
     own = scales(params)
     return {"A_eff": own["A_eff"], "A_eff_over_L0": own["A_eff_over_L0"], "filament": own,
@@ -189,9 +189,16 @@ def effective_rigidity_summary(params) -> dict:
 @theory.command("effective-rigidity")
 @param_options
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
-def effective_rigidity(as_json, **kwargs):
+@click.option("--measure", is_flag=True,
+              help="also measure A_eff on the discrete rod (end moments, a few seconds)")
+def effective_rigidity(as_json, measure, **kwargs):
     """Effective bending rigidity A_eff (App. C) and the master-curve scales of Fig. 8."""
-    out = effective_rigidity_summary(params_from_cli(kwargs))
+    params = params_from_cli(kwargs)
+    out = effective_rigidity_summary(params)
+    if measure:
+        from .effective_rigidity import measured_bending_rigidity
+
+        out["A_eff_measured"] = measured_bending_rigidity(params)
     if as_json:
         emit_json(out)
     else:

@@ -35,7 +35,8 @@ from ..helix import Helix
 from ..hydro.rft import effective_bending_rigidity, full_turn_coefficients
 from ..params import Params, check_real
 from .buckling import (BucklingProblem, CriticalPoint, NoConvergenceError,
-                       TrivialSolutionError, follow, is_tilt_mode, line_path, scan_path)
+                       TrivialSolutionError, follow, is_tilt_mode, line_path, scan_path,
+                       spectrum)
 
 #: Levels f̂⊥ of the buckling curves of Fig. 7(b).
 LEVELS = tuple(range(0, 301, 25))
@@ -86,6 +87,32 @@ class HelicalRod:
         """χ = χ̂ · A_eff/(a⊥ L0⁴) [1/s]."""
         return self.A_eff / (self.a_perp * self.L0**4)
 
+    @property
+    def master_rate_scale(self) -> float:
+        """Rate scale of Fig. 8 (App. C): A_eff/(L0³A⊥/3) = 3 A_eff/(a⊥L0⁴) [1/s], with
+        A⊥ = a⊥L0 the whole-filament coefficient of eq. (frict coeffiI)."""
+        return 3 * self.rate_scale
+
+    def reorientation_rate(self, m_hat: float, radius_correction: bool = False) -> float:
+        """Growth rate λ [1/s] of the least stable mode of the straight anchored rod.
+
+        On the anchored line (1/a = 0: f̂⊥ = 0, f̂∥ = −c∥L0 m̂/b∥) it is −min Re μ of
+        :func:`~flagellum.theory.buckling.spectrum` times A_eff/(a⊥L0⁴); for m̂ < 0 (pulling)
+        the precessing tilt mode, the effective-rod prediction of Fig. 8.
+        """
+        f_par, f_perp = self.sphere_loads(m_hat, 0.0, radius_correction)
+        mu = spectrum(BucklingProblem(m_hat=m_hat, f_par=f_par, f_perp=f_perp))
+        return float(-mu[0].real * self.rate_scale)
+
+    def with_thrust_per_torque(self, ratio: float) -> "HelicalRod":
+        """The rod with c∥ = −ratio · b∥, so that the anchored helix has F/M = ``ratio`` [1/µm].
+
+        On the anchored line only F/M = −c∥/b∥ enters (f̂∥ = −c∥L0 m̂/b∥); App. A gives
+        1.021 /µm for the paper's helix rotating about its own axis, the discrete filament
+        pinned at its first bead 0.95 /µm at M_c1 (docs/theory.md).
+        """
+        return replace(self, c_par=-check_real("ratio", ratio) * self.b_par)
+
     def coefficients(self, torque: float = 0.0, radius_correction: bool = False):
         """(a∥, b∥, c∥) at motor torque ``torque``; with the radius correction
         R⁻¹ → R⁻¹ + M/(2A cos α) (pitch angle fixed): b∥ ∝ R², c∥ ∝ R."""
@@ -124,7 +151,7 @@ class HelicalRod:
                 "pitch_angle_deg": math.degrees(self.pitch_angle), "radius": self.radius,
                 "a_perp": self.a_perp, "a_par": self.a_par, "b_par": self.b_par,
                 "c_par": self.c_par, "force_scale": self.force_scale,
-                "rate_scale": self.rate_scale}
+                "rate_scale": self.rate_scale, "master_rate_scale": self.master_rate_scale}
 
 
 def _derivative(fun, t, h=1e-6):

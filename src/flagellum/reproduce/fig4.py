@@ -111,9 +111,7 @@ def plot(lam, points, thermal, rft_omega, crit, quality, out_dir: Path, sig_eq_l
         a.axvline(crit["critical_torque"], color="0.3", ls="--", lw=1)
         a.set(xlabel="motor torque M [pN·µm]", ylabel=lab, title=title)
         a.legend(fontsize=8)
-    fig.suptitle(f"Fig. 4 (quality {quality})", fontsize=10)
-    fig.tight_layout()
-    return save_figure(fig, out_dir, "fig4")
+    return save_figure(fig, out_dir, "fig4", f"Fig. 4 (quality {quality})")
 
 
 def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:

@@ -107,16 +107,19 @@ def analyse(points: list[dict], F_anchored: float) -> dict:
             "parabola_points": fit_pts, "x": x, "M": M, "F": F}
 
 
+def _theory_lines(a, theory, x: str, y: str) -> None:
+    for rc, style in ((False, "--"), (True, ":")):
+        a.plot(theory[rc][x], theory[rc][y], style, color="tab:green",
+               label="rod theory §4" + (", radius correction" if rc else ", constant friction"))
+
+
 def plot(ana, theory, crit0, quality, out_dir: Path):
     plt = mpl()
     fig, axs = plt.subplots(1, 2, figsize=(12, 5))
     x, M, F = ana["x"], ana["M"], ana["F"]
     a = axs[0]
     a.plot(x, M, "o-", color="tab:blue", label="linear stability (N = 50)")
-    for rc, style in ((False, "--"), (True, ":")):
-        t = theory[rc]
-        a.plot(t["parameter"], t["M"], style, color="tab:green",
-               label="rod theory §4" + (", radius correction" if rc else ", constant friction"))
+    _theory_lines(a, theory, "parameter", "M")
     a.set(xlabel="inverse sphere radius 1/a [1/µm]", ylabel="critical torque $M_{c1}$ [pN·µm]",
           title=f"(a) critical torque versus 1/a (quality {quality})")
     a.legend(fontsize=8, loc="upper left")
@@ -135,10 +138,7 @@ def plot(ana, theory, crit0, quality, out_dir: Path):
     ins.legend(fontsize=6)
     a = axs[1]
     a.plot(M, F, "o-", color="tab:blue", label="linear stability (N = 50)")
-    for rc, style in ((False, "--"), (True, ":")):
-        t = theory[rc]
-        a.plot(t["M"], t["F"], style, color="tab:green",
-               label="rod theory §4" + (", radius correction" if rc else ", constant friction"))
+    _theory_lines(a, theory, "M", "F")
     if math.isfinite(ana["M_star"]):
         fall = (F < 0.8 * ana["F_plateau"]) & (x > FIT_MAX_INV_A)
         mm = np.linspace(M[fall].min() - 0.3, ana["M_star"], 40)
@@ -148,7 +148,6 @@ def plot(ana, theory, crit0, quality, out_dir: Path):
           title="(b) critical force versus critical torque")
     a.set_ylim(0, 1.35 * np.nanmax(F))
     a.legend(fontsize=8, loc="lower left")
-    fig.tight_layout()
     return save_figure(fig, out_dir, "fig5")
 
 

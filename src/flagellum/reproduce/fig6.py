@@ -127,9 +127,7 @@ def plot(q: dict, quality: str, out_dir: Path):
                    xytext=(5, -12), fontsize=8)
     a.set(xlabel="pitch angle α [deg]", ylabel="$A_{eff}/A$ (eq. C.4)", title="(c) effective bending rigidity")
     a.legend(fontsize=8)
-    fig.suptitle(f"Fig. 6: the helical rod of §4.1 (quality {quality})", fontsize=10)
-    fig.tight_layout()
-    return save_figure(fig, out_dir, "fig6")
+    return save_figure(fig, out_dir, "fig6", f"Fig. 6: the helical rod of §4.1 (quality {quality})")
 
 
 def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:

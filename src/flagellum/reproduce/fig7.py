@@ -130,7 +130,6 @@ def plot(res, dots, quality, out_dir: Path):
           title=f"(d) buckling curves (quality {quality})")
     a.set_ylim(bottom=0)
     a.legend(fontsize=8)
-    fig.tight_layout()
     return save_figure(fig, out_dir, "fig7")
 
 

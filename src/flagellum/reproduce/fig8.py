@@ -236,7 +236,6 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
     axs[3].set(yscale="log", xlabel="number of helical turns L/Λ", ylabel=r"$\hat\lambda$",
                title="(d) λ̂ depends on where the helix ends (A = C = A0, N = 50)")
     axs[3].legend(fontsize=7)
-    fig.tight_layout()
     files = save_figure(fig, out_dir, "fig8")
     files.append(write_csv(out_dir / "reorientation.csv", rows))
     files.append(write_csv(out_dir / "turn_scan.csv", tscan))

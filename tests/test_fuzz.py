@@ -99,6 +99,9 @@ import pytest  # noqa: E402
     ["--dt", "0"], ["--frame", "sideways"], ["--rtol", "2"], ["--save-every", "-1"],
     ["--seed", "-3", "--kT", "0.004"], ["--kT", "0", "--thermal"], ["--checkpoint-every", "0"],
     ["--output", "/proc/none/x.h5"], ["--length", "0.3"],
+    # found by the fuzz (tests/test_fuzz_commands.py): overflow, hang, NaN accepted
+    ["--save-every", "1e-320"], ["--save-every", "1e-12"], ["--average-from", "nan"],
+    ["--method", "implicit", "--dt", "1e-320"],
 ])
 def test_cli_simulate_bad_input(args, capsys, tmp_path):
     code = run(["simulate", "--length", "2", "--time", "0.001", *args])
@@ -106,3 +109,18 @@ def test_cli_simulate_bad_input(args, capsys, tmp_path):
     assert code == 2, err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("args", [
+    ["theory", "rigid-helix", "--time", "1e30"],  # hung
+    ["theory", "rigid-helix", "--time", "1e-320"],  # LinAlgError
+    ["theory", "rigid-helix", "--torque", "8e-302"],  # TypeError in solve_ivp
+    ["demo", "--out", "FILE/sub"],  # NotADirectoryError
+])
+def test_cli_regressions(args, capsys, tmp_path):
+    f = tmp_path / "f"
+    f.write_text("not a directory")
+    assert run([str(f) if a == "FILE" else a.replace("FILE", str(f)) for a in args]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert [p.name for p in tmp_path.iterdir()] == ["f"]

@@ -54,3 +54,22 @@ def test_tangent_correlation_of_a_straight_filament():
     for k in (1, 3):
         c = np.einsum("tij,tij->ti", t[:, :-k], t[:, k:]).mean()
         assert (1 - c) == pytest.approx(1 - np.exp(-k * h * KT / A), rel=0.1)
+
+
+@pytest.mark.parametrize("scheme", ["bdf2", "theta"])
+def test_free_axial_diffusion_with_a_load_sphere(scheme):
+    """Straight filament on a load sphere: translation along z is a zero mode with friction
+    Γ = 6πηa + γ∥L, so z of the sphere diffuses with D = kT/Γ (Einstein), whatever the
+    fixed-step scheme (its noise must add up to the right diffusion)."""
+    from flagellum.motor import Boundary
+
+    p = Params(Filament(kappa0=0.0, tau0=0.0, length=2.0), Fluid(kT=KT))
+    bd = Boundary(anchor="sphere", sphere_radius=0.5)
+    dt, lag = 5e-5, 10
+    sim = Simulator(p, Motor(0.0), bd, thermal=True, seed=5,
+                    solver=SolverOptions(method="implicit", dt=dt, scheme=scheme))
+    z = sim.run(4000 * dt, save_every=dt, progress=False).positions[:, 0, 2]
+    gamma = bd.sphere_drag(p.fluid.viscosity) + p.gammas[0] * p.filament.length
+    dz = z[lag:] - z[:-lag]
+    msd = np.mean(dz[::lag] ** 2)  # independent increments
+    assert msd / (2 * KT / gamma * lag * dt) == pytest.approx(1.0, abs=0.12)

@@ -184,8 +184,11 @@ def motor_boundary_from_cli(kwargs: dict):
               help="integrator (default: cvode, implicit for thermal runs)")
 @click.option("--rtol", type=float, default=1e-6, show_default=True, help="relative tolerance (cvode)")
 @click.option("--dt", type=float, default=5e-5, show_default=True, help="time step of the implicit scheme [s]")
-@click.option("--theta", type=float, default=1.0, show_default=True,
-              help="implicitness of the fixed-step scheme: 1 implicit Euler, 0.5 trapezoidal")
+@click.option("--scheme", type=click.Choice(["bdf2", "theta"]), default=None,
+              help="fixed-step scheme (implicit method): bdf2 (default) or the θ-method")
+@click.option("--theta", type=float, default=None,
+              help="implicitness of the θ-method (implies --scheme theta): 1 implicit Euler "
+                   "(default), 0.5 trapezoidal")
 @click.option("--frame", default="auto", show_default=True,
               help="computational frame: auto (co-rotating), lab, or a rotation rate [rad/s]")
 @click.option("--output", "-o", type=click.Path(dir_okay=False), default=None, help="HDF5 trajectory file")
@@ -194,11 +197,15 @@ def motor_boundary_from_cli(kwargs: dict):
 @click.option("--resume", "resume_file", type=click.Path(dir_okay=False), default=None,
               help="continue the run in this HDF5 file from its last checkpoint")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object (no progress bar)")
-def simulate(t_end, save_every, average_from, thermal, seed, method, rtol, dt, theta, frame,
+def simulate(t_end, save_every, average_from, thermal, seed, method, rtol, dt, scheme, theta, frame,
              output, checkpoint_every, resume_file, as_json, **kwargs):
     """Simulate the motor-driven filament and report time-averaged observables."""
+    from .params import check_range
     from .simulator import Simulator, SolverOptions
 
+    if average_from is not None:  # checked before the run, against the run's time if known
+        check_range("average_from", average_from, 0.0, math.inf if resume_file else t_end,
+                    lo_open=False)
     if resume_file is not None:
         sim, traj = Simulator.resume(resume_file, progress=False if as_json else None)
         _report_run(sim, traj, average_from, resume_file, as_json)
@@ -211,7 +218,7 @@ def simulate(t_end, save_every, average_from, thermal, seed, method, rtol, dt, t
     except ValueError:
         pass
     solver = SolverOptions(method=method or ("implicit" if thermal else "cvode"), rtol=rtol,
-                           atol=rtol * 1e-2, dt=dt, theta=theta, frame=frame)
+                           atol=rtol * 1e-2, dt=dt, theta=theta, scheme=scheme, frame=frame)
     sim = Simulator(params, motor, boundary, thermal=thermal, seed=seed, solver=solver)
     traj = sim.run(t_end, save_every=save_every if save_every is not None else t_end / 300,
                    output=output, progress=False if as_json else None,

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import glob
 import os
 import tempfile
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -39,6 +40,11 @@ def atomic_write_text(path: str | Path, text: str) -> None:
 
 
 # -- trajectories (HDF5) ----------------------------------------------------------------
+#
+# Crash safety: a trajectory file is never modified in place. While a run is going, each
+# checkpoint interval's records go to a new part file ``<output>.parts/NNNNNNNN.h5``, written
+# atomically; :func:`finish_trajectory` writes the main file anew (atomically) from its
+# attributes and all parts. A kill at any instant therefore leaves whole files only.
 
 #: per-record datasets: name → (shape of one record as a function of n, dtype)
 RECORD_FIELDS = {
@@ -54,6 +60,9 @@ RECORD_FIELDS = {
     "energy": (lambda n: (), "f8"),
     "frame_angle": (lambda n: (), "f8"),
 }
+
+#: ``status`` of a main file whose records are still in its parts
+RUNNING = "running"
 
 
 def provenance() -> dict:
@@ -75,65 +84,125 @@ def provenance() -> dict:
             "created": datetime.datetime.now(datetime.timezone.utc).isoformat()}
 
 
+def _init_datasets(f, n: int, attrs: dict) -> None:
+    for k, v in attrs.items():
+        f.attrs[k] = v
+    for name, (shape, dt) in RECORD_FIELDS.items():
+        s = shape(n)
+        f.create_dataset(name, shape=(0,) + s, maxshape=(None,) + s, dtype=dt,
+                         chunks=(max(1, min(1024, 65536 // max(1, int(np.prod(s))))),) + s)
+
+
+def _append(f, records: dict) -> None:
+    n_old, m = f["t"].shape[0], len(records["t"])
+    for name in RECORD_FIELDS:
+        f[name].resize(n_old + m, axis=0)
+        f[name][n_old:] = records[name]
+
+
 def create_trajectory(path, n: int, attrs: dict) -> None:
     """Create an empty, chunked, resizable trajectory file (atomically)."""
     import h5py
 
     with atomic_path(path) as tmp:
         with h5py.File(tmp, "w") as f:
-            for k, v in attrs.items():
-                f.attrs[k] = v
-            for name, (shape, dt) in RECORD_FIELDS.items():
-                s = shape(n)
-                f.create_dataset(name, shape=(0,) + s, maxshape=(None,) + s, dtype=dt,
-                                 chunks=(max(1, min(1024, 65536 // max(1, int(np.prod(s))))),) + s)
+            _init_datasets(f, n, attrs)
 
 
-def append_records(path, records: dict, keep: int | None = None) -> int:
-    """Append buffered records (dict of arrays with equal first dimension); return the count.
+def parts_dir(path) -> Path:
+    path = Path(path)
+    return path.with_name(path.name + ".parts")
 
-    ``keep`` first truncates the datasets to that many records (resume after a kill).
+
+def part_files(path) -> list[Path]:
+    """The complete part files of ``path``, in order."""
+    d = parts_dir(path)
+    parts = [p for p in d.glob("*.h5") if p.stem.isdigit()] if d.is_dir() else []
+    return sorted(parts, key=lambda p: int(p.stem))
+
+
+def write_part(path, index: int, records: dict) -> None:
+    """Write one interval's records (dict of equally long lists) as part ``index`` of ``path``."""
+    import h5py
+
+    with atomic_path(parts_dir(path) / f"{index:08d}.h5") as tmp:
+        with h5py.File(tmp, "w") as f:
+            for name in RECORD_FIELDS:
+                f[name] = np.asarray(records[name], float)
+
+
+def drop_parts(path, keep: int = 0) -> None:
+    """Delete the parts from index ``keep`` on (all: also the folder) and any temporary file
+    that a killed atomic write left there."""
+    d = parts_dir(path)
+    if d.is_dir():
+        for p in d.iterdir():
+            if not (p.suffix == ".h5" and p.stem.isdigit() and int(p.stem) < keep):
+                p.unlink()
+        if keep == 0:
+            d.rmdir()
+
+
+def drop_temps(path) -> None:
+    """Remove the temporary files that killed atomic writes of ``path`` left next to it."""
+    path = Path(path)
+    pre, suf = f".{path.stem}.", f".tmp{path.suffix}"
+    for p in path.parent.glob(f"{glob.escape(pre)}*{glob.escape(suf)}"):
+        middle = p.name[len(pre):-len(suf)]
+        if len(middle) == 8 and "." not in middle:  # mkstemp's random part
+            p.unlink(missing_ok=True)
+
+
+def finish_trajectory(path, tail: dict | None = None, final_state=None,
+                      attrs: dict | None = None) -> None:
+    """Atomically rewrite ``path`` with its attributes updated by ``attrs``, the records of
+    all its parts, then those ``tail`` records later than the last part, and ``final_state``.
+
+    The parts are kept (a checkpoint may still refer to them); memory holds one part at a time.
     """
     import h5py
 
-    with h5py.File(path, "a") as f:
-        n_old = f["t"].shape[0] if keep is None else keep
-        m = len(records["t"])
-        for name in RECORD_FIELDS:
-            ds = f[name]
-            ds.resize(n_old + m, axis=0)
-            if m:
-                ds[n_old:] = np.asarray(records[name])
-        f.flush()
-        return n_old + m
+    with h5py.File(path, "r") as f:
+        old, n = dict(f.attrs), f["angles"].shape[1] - 1
+    with atomic_path(path) as tmp:
+        with h5py.File(tmp, "w") as f:
+            _init_datasets(f, n, {**old, **(attrs or {})})
+            for p in part_files(path):
+                with h5py.File(p, "r") as part:
+                    _append(f, {k: part[k][()] for k in RECORD_FIELDS})
+            if tail is not None and len(tail["t"]):
+                t = np.asarray(tail["t"], float)
+                new = t > f["t"][-1] if f["t"].shape[0] else np.ones(len(t), bool)
+                _append(f, {k: np.asarray(v, float)[new] for k, v in tail.items()})
+            if final_state is not None:
+                f["final_state"] = final_state
 
 
-def read_trajectory(path) -> dict:
-    """All records and attributes of a trajectory file."""
+def read_trajectory(path, records: bool = True) -> dict:
+    """All records and attributes of a trajectory file (of a running or killed run: from
+    its parts). A file without records (no ``t``), or ``records=False``, yields the
+    attributes only."""
     import h5py
 
     from .errors import ParameterError
 
+    def bad(why):
+        return ParameterError("file", str(path), f"a readable flagellum HDF5 file ({why})")
+
     try:
-        with h5py.File(path, "r") as f:
-            out = {name: f[name][()] for name in RECORD_FIELDS if name in f}
-            out["attrs"] = dict(f.attrs)
-            if "final_state" in f:
+        with h5py.File(path, "r") as f, ExitStack() as stack:
+            out = {"attrs": dict(f.attrs)}
+            parts = part_files(path) if str(out["attrs"].get("status", "")) == RUNNING else []
+            sources = [stack.enter_context(h5py.File(p, "r")) for p in parts] or [f]
+            if records and "t" in f:
+                out.update({k: np.concatenate([s[k][()] for s in sources]) for k in RECORD_FIELDS})
+            if records and "final_state" in f:
                 out["final_state"] = f["final_state"][()]
-    except (OSError, KeyError) as exc:
-        raise ParameterError("file", str(path), f"a readable flagellum HDF5 file ({exc})")
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        raise bad(exc) from None
+    if "t" in out:
+        m, n = len(out["t"]), np.shape(out["positions"])[1:2]
+        for name, (shape, _) in RECORD_FIELDS.items():
+            if not n or out[name].shape != (m,) + shape(n[0] - 1) or out[name].dtype.kind != "f":
+                raise bad(f"dataset {name} has shape {out[name].shape}")
     return out
-
-
-def write_datasets(path, datasets: dict, attrs: dict | None = None) -> None:
-    """Add or replace whole datasets and attributes of an existing file."""
-    import h5py
-
-    with h5py.File(path, "a") as f:
-        for k, v in datasets.items():
-            if k in f:
-                del f[k]
-            f[k] = v
-        for k, v in (attrs or {}).items():
-            f.attrs[k] = v
-        f.flush()

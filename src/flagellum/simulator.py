@@ -17,8 +17,10 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 import sys
 import time
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -34,6 +36,8 @@ from .params import Params, check_choice, check_range, positive
 from .rod.model import RodModel, angles, positions
 
 MAX_STRAIN = 0.5  #: a bond stretched or compressed by more than this is a blow-up
+MAX_RECORDS = 10**6  #: records per run (memory of the returned trajectory)
+CHART_LIMIT = -0.8  #: re-centre a chart (and restart the integrator) when t·u falls below this
 
 
 @dataclass(frozen=True)
@@ -41,14 +45,17 @@ class SolverOptions:
     """Numerical settings.
 
     method : ``"cvode"`` (deterministic, error-controlled) or ``"implicit"`` (fixed-step
-        drift-implicit Euler; the only choice with thermal noise).
+        drift-implicit scheme; the only choice with thermal noise).
     rtol, atol : CVODE tolerances (positions in µm, angles in rad).
     dt : step of the fixed-step scheme [s].
-    theta : implicitness of the fixed-step scheme: 1 = implicit Euler (default; damps the
-        stiff bond-scale modes, accurate for the filament-scale observables at Δt = 5e-5 s),
-        1/2 = trapezoidal (exact stationary variance of every harmonic mode, needed for
-        bond-scale equipartition, with Δt ≲ 5e-6 s; its stiff modes ring, so the force on the
-        anchor fluctuates strongly).
+    scheme : fixed-step scheme: ``"bdf2"`` (default: second order, L-stable, damps the stiff
+        bond-scale modes without damping the slow buckling mode) or ``"theta"`` (the default
+        when ``theta`` is given).
+    theta : implicitness of the θ-method (scheme ``"theta"``): 1 = implicit Euler (damps the
+        stiff modes, but also the buckling mode: at Δt = 5e-5 s it keeps the filament aligned
+        up to M ≈ 3 pN·µm in the co-rotating frame), 1/2 = trapezoidal (exact stationary
+        variance of every harmonic mode, needed for bond-scale equipartition, with
+        Δt ≲ 5e-6 s; its stiff modes ring, so the force on the anchor fluctuates strongly).
     frame : ``"auto"`` (co-rotating with the motor, rate adapted on the fly), ``"lab"``,
         or a fixed rotation rate [rad/s].
     """
@@ -57,14 +64,20 @@ class SolverOptions:
     rtol: float = 1e-6
     atol: float = 1e-8
     dt: float = 5e-5
-    theta: float = 1.0
+    theta: float | None = None
     frame: str | float = "auto"
+    scheme: str | None = None
 
     def __post_init__(self):
         check_choice("method", self.method, ("cvode", "implicit"))
+        if self.scheme is None:  # giving θ selects the θ-method
+            object.__setattr__(self, "scheme", "bdf2" if self.theta is None else "theta")
+        check_choice("scheme", self.scheme, ("bdf2", "theta"))
+        if self.theta is None:
+            object.__setattr__(self, "theta", 1.0)
         object.__setattr__(self, "rtol", check_range("rtol", self.rtol, 1e-14, 0.1))
         object.__setattr__(self, "atol", check_range("atol", self.atol, 0.0, 1.0))
-        object.__setattr__(self, "dt", positive("dt", self.dt, 1e-2))
+        object.__setattr__(self, "dt", check_range("dt", self.dt, 1e-9, 1e-2, lo_open=False))
         object.__setattr__(self, "theta", check_range("theta", self.theta, 0.5, 1.0, lo_open=False))
         if not isinstance(self.frame, str):
             object.__setattr__(self, "frame", check_range("frame", self.frame, -1e6, 1e6, lo_open=False))
@@ -187,7 +200,7 @@ class Simulator:
         return ImplicitStepper(self.model, self.t, self.y, self.solver.dt,
                                kT=self.params.fluid.kT if self.thermal else 0.0,
                                seed=self.seed, rng_state=self._rng_state, jac_every=3,
-                               theta=self.solver.theta)
+                               theta=self.solver.theta if self.solver.scheme == "theta" else None)
 
     def _record(self, buf: dict) -> None:
         m, y, t = self.model, self.y, self.t
@@ -217,7 +230,7 @@ class Simulator:
             if t_target - t_next < 0.25 * chunk:
                 t_next = t_target
             y = stepper.advance(t_next)
-            if t_next < t_target and self.model.rechart(y, threshold=0.0):
+            if t_next < t_target and self.model.rechart(y, threshold=CHART_LIMIT):
                 stepper.reset(t_next, y)
         return y
 
@@ -259,25 +272,40 @@ class Simulator:
             progress: bool | None = None, checkpoint_every: float | None = None) -> Trajectory:
         """Integrate from the current time to ``t_end`` [s], saving every ``save_every`` s.
 
-        With ``output`` the records stream to a chunked HDF5 file, written at each checkpoint
-        (every ``checkpoint_every`` simulated seconds, by default every 1000 records) together
-        with an atomically replaced checkpoint ``<output>.ckpt``, so memory stays bounded and
-        a killed run can be continued with :meth:`resume`; the returned :class:`Trajectory`
-        then holds the whole run read back from the file.
+        With ``output`` the records go, at each checkpoint (every ``checkpoint_every``
+        simulated seconds, by default every 1000 records), to a new part file in
+        ``<output>.parts/`` together with an atomically replaced checkpoint ``<output>.ckpt``,
+        so memory stays bounded and a run killed at any instant can be continued with
+        :meth:`resume`; at the end the parts are gathered into ``output`` (see
+        :mod:`flagellum.io`) and the returned :class:`Trajectory` holds the whole run read
+        back from it.
         A blow-up raises :class:`SimulationError` after saving the last good state.
         """
         t_end = check_range("time", t_end, self.t, 1e6)
         save_every = positive("save_every", save_every if save_every is not None
                               else (t_end - self.t) / 200, t_end - self.t)
+        if (t_end - self.t) / save_every > MAX_RECORDS:
+            raise ParameterError("save_every", save_every, f"at least time/{MAX_RECORDS:.0e} = "
+                                 f"{(t_end - self.t) / MAX_RECORDS:g} s (at most {MAX_RECORDS:.0e} records)")
         if checkpoint_every is not None:
             checkpoint_every = positive("checkpoint_every", checkpoint_every, 1e6)
         flush_every = max(1, int(round(checkpoint_every / save_every))) if checkpoint_every else 1000
         plan = {"t0": self.t, "t_end": t_end, "save_every": save_every, "flush_every": flush_every}
         if output is not None:
             output = Path(output)
-            _check_writable(output)
-            io.create_trajectory(output, self.model.n, self.metadata())
+            n_records = len(self._times(plan)) + 1
+            _check_writable(output, 2 * n_records * _record_bytes(self.model.n))  # parts + file
+            self._start_output(output, plan)
         return self._loop(plan, 0, output, progress)
+
+    def _start_output(self, output: Path, plan: dict) -> None:
+        """Remove what an earlier run into ``output`` left, create the (empty) main file."""
+        checkpoint_path(output).unlink(missing_ok=True)
+        io.drop_parts(output)
+        with _writing(output):
+            io.create_trajectory(output, self.model.n, {**self.metadata(), "status": io.RUNNING,
+                                                        "plan": json.dumps(plan)})
+        self._n_parts = 0
 
     @staticmethod
     def _times(plan) -> np.ndarray:
@@ -323,32 +351,30 @@ class Simulator:
                     changed = True  # restart the integrator at checkpoints (resume = identical)
                 if changed:
                     stepper.reset(self.t, self.y)
+        except OutputError:
+            raise  # the parts and the last checkpoint stay as they are
         except SimulationError as exc:
             self.t, self.y, self.frame_angle = good
-            self._flush(buf, all_buf, output, stepper)
-            if output is not None:
-                io.write_datasets(output, {"final_state": self.y}, {"status": f"failed: {exc}"})
-                raise SimulationError(f"{exc}; last good state (t = {self.t:.6g} s) saved to {output}")
-            raise
+            if output is None:
+                raise
+            self._finish(output, buf, f"failed: {exc}")
+            raise SimulationError(f"{exc}; last good state (t = {self.t:.6g} s) saved to {output}")
         except KeyboardInterrupt:
             if output is not None:
-                io.write_datasets(output, {"final_state": self.y}, {"status": "interrupted"})
+                self._finish(output, buf, "interrupted")
             raise
         finally:
             if bar is not None:
                 bar.close()
             self.wall_seconds += time.perf_counter() - wall0
             self.steps += getattr(stepper, "n_steps", 0)
-        self._flush(buf, all_buf, output, stepper)
         if output is not None:
-            io.write_datasets(output, {"final_state": self.y},
-                              {"status": "complete", "wall_seconds": self.wall_seconds,
-                               "steps": self.steps})
-            ckpt = checkpoint_path(output)
-            if ckpt.exists():
-                ckpt.unlink()
+            self._finish(output, buf, "complete", wall_seconds=self.wall_seconds, steps=self.steps)
+            checkpoint_path(output).unlink(missing_ok=True)
+            io.drop_parts(output)
             data = io.read_trajectory(output)
             return Trajectory({k: data[k] for k in io.RECORD_FIELDS}, self.metadata())
+        self._flush(buf, all_buf, output, stepper)
         return Trajectory({k: np.array(v) for k, v in all_buf.items()}, self.metadata())
 
     # -- checkpoints ----------------------------------------------------------------------
@@ -356,13 +382,14 @@ class Simulator:
         import h5py
 
         n_records = n_done + 1  # the initial record
-        with io.atomic_path(checkpoint_path(output)) as tmp:
+        with _writing(output), io.atomic_path(checkpoint_path(output)) as tmp:
             with h5py.File(tmp, "w") as f:
                 f["y"] = self.y
                 f["ref_u"], f["ref_e"], f["ref_m"] = self.model.charts()
                 f.attrs.update({"t": self.t, "frame_angle": self.frame_angle,
                                 "omega_frame": self.model.omega_frame, "n_done": n_done,
-                                "n_records": n_records, "plan": json.dumps(plan),
+                                "n_records": n_records, "n_parts": self._n_parts,
+                                "plan": json.dumps(plan),
                                 "rng_state": json.dumps(self._rng_state),
                                 "last_motor": json.dumps(self._last_motor),
                                 "wall_seconds": self.wall_seconds + time.perf_counter() - wall0,
@@ -390,25 +417,50 @@ class Simulator:
         with the same random stream, so the final file is identical (deterministic runs
         bit-for-bit).
         """
-        import h5py
-
         output = Path(output)
         ckpt = checkpoint_path(output)
-        if not ckpt.exists():
-            data = io.read_trajectory(output)
-            if str(data["attrs"].get("status", "")) == "complete":
-                sim = cls.from_spec(json.loads(data["attrs"]["spec"]))
-                sim.wall_seconds = float(data["attrs"].get("wall_seconds", 0.0))
-                sim.steps = int(data["attrs"].get("steps", 0))
-                return sim, Trajectory({k: data[k] for k in io.RECORD_FIELDS}, sim.metadata())
-            raise ParameterError("resume", str(output), "a run with a checkpoint file "
-                                 f"{ckpt.name} (none found; the run stopped before its first checkpoint)")
+        attrs = io.read_trajectory(output, records=False)["attrs"]
+        status = str(attrs.get("status", ""))
         try:
-            with h5py.File(ckpt, "r") as f:
-                a = dict(f.attrs)
-                y, charts = f["y"][()], (f["ref_u"][()], f["ref_e"][()], f["ref_m"][()])
-        except (OSError, KeyError) as exc:
-            raise ParameterError("resume", str(ckpt), f"a readable checkpoint ({exc})")
+            if status == "complete":  # killed after writing the file, before tidying up
+                ckpt.unlink(missing_ok=True)
+                io.drop_parts(output)
+                data = io.read_trajectory(output)
+                sim = cls.from_spec(json.loads(attrs["spec"]))
+                sim.wall_seconds = float(attrs.get("wall_seconds", 0.0))
+                sim.steps = int(attrs.get("steps", 0))
+                return sim, Trajectory({k: data[k] for k in io.RECORD_FIELDS}, sim.metadata())
+            _check_writable(output)
+            for p in (output, ckpt):
+                io.drop_temps(p)
+            if ckpt.exists():
+                sim, plan, start = cls._from_checkpoint(ckpt)
+            else:  # killed before its first checkpoint: start again (CLI runs start at t = 0)
+                plan, start = json.loads(attrs.get("plan", "{}")), 0
+                if plan.get("t0") != 0.0:
+                    raise ParameterError("resume", str(output), "a run with a checkpoint file "
+                                         f"{ckpt.name} (none found; the run stopped before its "
+                                         "first checkpoint)")
+                sim = cls.from_spec(json.loads(attrs["spec"]))
+                sim._n_parts = 0
+        except (OSError, KeyError, ValueError, TypeError) as exc:
+            if isinstance(exc, ParameterError):
+                raise
+            raise ParameterError("resume", str(output), f"a run with a readable checkpoint ({exc!r})")
+        io.drop_parts(output, keep=sim._n_parts)  # parts written after the checkpoint
+        if status != io.RUNNING:  # interrupted or failed: its records are in the parts again
+            with _writing(output):
+                io.create_trajectory(output, sim.model.n, {**attrs, "status": io.RUNNING})
+        return sim, sim._loop(plan, start, output, progress)
+
+    @classmethod
+    def _from_checkpoint(cls, ckpt: Path) -> tuple["Simulator", dict, int]:
+        """The simulator in the state of checkpoint ``ckpt``, its plan and the records done."""
+        import h5py
+
+        with h5py.File(ckpt, "r") as f:
+            a = dict(f.attrs)
+            y, charts = f["y"][()], (f["ref_u"][()], f["ref_e"][()], f["ref_m"][()])
         sim = cls.from_spec(json.loads(a["spec"]))
         sim.t, sim.y, sim.frame_angle = float(a["t"]), y, float(a["frame_angle"])
         sim.model.set_omega_frame(float(a["omega_frame"]))
@@ -416,33 +468,42 @@ class Simulator:
         sim._rng_state = json.loads(a["rng_state"])
         sim._last_motor = tuple(json.loads(a["last_motor"]))
         sim.wall_seconds = float(a["wall_seconds"])
-        io.append_records(output, {k: np.zeros((0,) + tuple(sh(sim.model.n)))
-                                   for k, (sh, _) in io.RECORD_FIELDS.items()},
-                          keep=int(a["n_records"]))
-        plan = json.loads(a["plan"])
-        return sim, sim._loop(plan, int(a["n_done"]), output, progress)
+        sim._n_parts = int(a["n_parts"])
+        return sim, json.loads(a["plan"]), int(a["n_done"])
 
     def _flush(self, buf, all_buf, output, stepper):
         if all_buf is not None:
             for k, v in buf.items():
                 all_buf[k].extend(v)
         elif output is not None and buf["t"]:
-            io.append_records(output, {k: np.array(v) for k, v in buf.items()})
+            with _writing(output):
+                io.write_part(output, self._n_parts, buf)
+            self._n_parts += 1
         for v in buf.values():
             v.clear()
         self._rng_state = getattr(stepper, "rng_state", None)
 
+    def _finish(self, output: Path, buf: dict, status: str, **attrs) -> None:
+        """Write the main file from the parts and the records in ``buf`` (atomically)."""
+        with _writing(output):
+            io.finish_trajectory(output, buf, self.y, {"status": status, **attrs})
+
     def _adapt_frame(self, buf) -> bool:
-        """Co-rotating frame: follow the motor speed once it has settled (frame='auto')."""
+        """Co-rotating frame (frame='auto'): follow the motor speed once it has settled; in
+        unsteady states (buckled, oscillating) follow its mean roughly (within 25 %), which
+        keeps the integrator restarts rare while the filament stays slow in that frame."""
         if self.solver.frame != "auto" or len(buf["motor_angle"]) < 5:
             return False
         t = np.array(buf["t"][-5:])
-        rates = np.diff(np.array(buf["motor_angle"][-5:])) / np.diff(t)
-        target = float(np.mean(rates))
-        spread = float(np.ptp(rates))
+        key = "motor_angle" if self.thermal else "motor_speed"
+        vals = np.array(buf[key][-5:])
+        rates = np.diff(vals) / np.diff(t) if self.thermal else vals
+        target = float(np.clip(np.median(rates), -3 * self._omega_scale, 3 * self._omega_scale))
+        spread = float(np.ptp(rates))  # transients spike the instantaneous speed: median, capped
         cur = self.model.omega_frame
-        plausible = cur == 0.0 or 0.5 < target / cur < 2.0  # ignore garbled rates (regime iv)
-        if plausible and spread < 0.02 * abs(target) + 1.0 and abs(target - cur) > 0.01 * abs(cur) + 1.0:
+        steady = spread < 0.02 * abs(target) + 1.0
+        tol = 0.01 * abs(cur) + 1.0 if steady else 0.25 * abs(target) + 1.0
+        if abs(target - cur) > tol:
             self.model.set_omega_frame(target)
             return True
         return False
@@ -453,7 +514,27 @@ def checkpoint_path(output: str | Path) -> Path:
     return output.with_name(output.name + ".ckpt")
 
 
-def _check_writable(path: Path) -> None:
+class OutputError(SimulationError):
+    """An output file could not be written (disk full, …)."""
+
+
+@contextmanager
+def _writing(output: Path):
+    """Report a failed write as one line; the parts and the last checkpoint stay usable."""
+    try:
+        yield
+    except OSError as exc:
+        keep = (f"the last checkpoint is kept: free space, then flagellum simulate --resume {output}"
+                if checkpoint_path(output).exists() else "no checkpoint had been written")
+        raise OutputError(f"cannot write {output} ({exc.strerror or exc}); {keep}") from None
+
+
+def _record_bytes(n: int) -> int:
+    return 8 * sum(int(np.prod(shape(n))) for shape, _ in io.RECORD_FIELDS.values())
+
+
+def _check_writable(path: Path, nbytes: int = 0) -> None:
+    """Fail before a run if ``path`` cannot be written or its disk lacks ``nbytes``."""
     d = path.parent if str(path.parent) else Path(".")
     if d.exists() and not d.is_dir():
         raise ParameterError("output", str(path), "a path in a writable directory")
@@ -464,6 +545,10 @@ def _check_writable(path: Path) -> None:
         probe.unlink()
     except OSError as exc:
         raise ParameterError("output", str(path), f"a path in a writable directory ({exc.strerror})")
+    free = shutil.disk_usage(d).free
+    if nbytes > free:
+        raise ParameterError("output", str(path), f"on a disk with {nbytes / 1e6:.3g} MB free "
+                             f"for this run (it has {free / 1e6:.3g} MB)")
 
 
 def _progress(total: int, enabled: bool):

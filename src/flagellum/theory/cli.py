@@ -145,8 +145,8 @@ def rigid_helix(torque, tilt, t_end, origin, as_json, **kwargs):
 
     params = params_from_cli(kwargs)
     torque, tilt = check_real("torque", torque), check_real("tilt", tilt)
-    if torque == 0:
-        raise ParameterError("torque", torque, "non-zero")
+    if not 1e-6 <= abs(torque) <= 1e6:  # (a tiny torque: an endless precession period)
+        raise ParameterError("torque", torque, "1e-06 ≤ |torque| ≤ 1e+06")
     B = rotational_resistance(params, origin)
     evals = np.linalg.eigvalsh(B)
     b_perp = float(np.mean(evals[1:]))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import glob
 import os
+import shutil
 import tempfile
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
@@ -206,3 +207,24 @@ def read_trajectory(path, records: bool = True) -> dict:
             if not n or out[name].shape != (m,) + shape(n[0] - 1) or out[name].dtype.kind != "f":
                 raise bad(f"dataset {name} has shape {out[name].shape}")
     return out
+
+
+def check_writable(path: Path, nbytes: int = 0) -> None:
+    """Fail before a run if ``path`` cannot be written or its disk lacks ``nbytes``."""
+    from .errors import ParameterError
+
+    path = Path(path)
+    d = path.parent if str(path.parent) else Path(".")
+    if d.exists() and not d.is_dir():
+        raise ParameterError("output", str(path), "a path in a writable directory")
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+        probe = d / f".{path.name}.probe"
+        probe.write_bytes(b"0")
+        probe.unlink()
+    except OSError as exc:
+        raise ParameterError("output", str(path), f"a path in a writable directory ({exc.strerror})")
+    free = shutil.disk_usage(d).free
+    if nbytes > free:
+        raise ParameterError("output", str(path), f"on a disk with {nbytes / 1e6:.3g} MB free "
+                             f"for this run (it has {free / 1e6:.3g} MB)")

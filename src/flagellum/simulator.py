@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 import sys
 import time
 from contextlib import contextmanager
@@ -294,7 +293,7 @@ class Simulator:
         if output is not None:
             output = Path(output)
             n_records = len(self._times(plan)) + 1
-            _check_writable(output, 2 * n_records * _record_bytes(self.model.n))  # parts + file
+            io.check_writable(output, 2 * n_records * _record_bytes(self.model.n))  # parts + file
             self._start_output(output, plan)
         return self._loop(plan, 0, output, progress)
 
@@ -430,7 +429,7 @@ class Simulator:
                 sim.wall_seconds = float(attrs.get("wall_seconds", 0.0))
                 sim.steps = int(attrs.get("steps", 0))
                 return sim, Trajectory({k: data[k] for k in io.RECORD_FIELDS}, sim.metadata())
-            _check_writable(output)
+            io.check_writable(output)
             for p in (output, ckpt):
                 io.drop_temps(p)
             if ckpt.exists():
@@ -531,24 +530,6 @@ def _writing(output: Path):
 
 def _record_bytes(n: int) -> int:
     return 8 * sum(int(np.prod(shape(n))) for shape, _ in io.RECORD_FIELDS.values())
-
-
-def _check_writable(path: Path, nbytes: int = 0) -> None:
-    """Fail before a run if ``path`` cannot be written or its disk lacks ``nbytes``."""
-    d = path.parent if str(path.parent) else Path(".")
-    if d.exists() and not d.is_dir():
-        raise ParameterError("output", str(path), "a path in a writable directory")
-    try:
-        d.mkdir(parents=True, exist_ok=True)
-        probe = d / f".{path.name}.probe"
-        probe.write_bytes(b"0")
-        probe.unlink()
-    except OSError as exc:
-        raise ParameterError("output", str(path), f"a path in a writable directory ({exc.strerror})")
-    free = shutil.disk_usage(d).free
-    if nbytes > free:
-        raise ParameterError("output", str(path), f"on a disk with {nbytes / 1e6:.3g} MB free "
-                             f"for this run (it has {free / 1e6:.3g} MB)")
 
 
 def _progress(total: int, enabled: bool):

@@ -54,6 +54,10 @@ def bifurcations(torque_range, t_end, quality, tol, hysteresis, confirm_mc1, mc1
     boundary = boundary_from_cli(kwargs)
     params = params_from_cli(kwargs)
     head = {"quality": quality, "sphere_radius": boundary.sphere_radius}
+    if out:
+        from ..io import check_writable
+
+        check_writable(out)
     partial, write = _writer(out, head) if out else (None, None)
     res = find(params, boundary, quality=quality, torque_range=torque_range, t_end=t_end, tol=tol,
                hysteresis=hysteresis, mc2=not mc1_only, confirm_mc1=confirm_mc1,

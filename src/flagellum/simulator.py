@@ -198,7 +198,7 @@ class Simulator:
 
         return ImplicitStepper(self.model, self.t, self.y, self.solver.dt,
                                kT=self.params.fluid.kT if self.thermal else 0.0,
-                               seed=self.seed, rng_state=self._rng_state, jac_every=3,
+                               seed=self.seed, rng_state=self._rng_state,
                                theta=self.solver.theta if self.solver.scheme == "theta" else None)
 
     def _record(self, buf: dict) -> None:

@@ -13,7 +13,10 @@ bias by a random finite difference (Delong et al., J. Chem. Phys. 140, 134110 (2
     kT ∂_q·M ≈ (kT/δ) [M(q + δW/2) − M(q − δW/2)] W,   W ~ N(0, 1),
 
 so the scheme samples the Boltzmann distribution to first order in Δt. The implicit
-equation is solved by simplified Newton with a banded Jacobian that is reused over steps.
+equation is solved by a chord (simplified Newton) iteration with a banded Jacobian that is
+reused over steps, accelerated by Anderson mixing (:func:`_anderson`); the Jacobian is
+refreshed only when the iteration stalls (the thermal kicks of the material angles make
+a stale Jacobian converge slowly, which the mixing tolerates).
 Random numbers come from numpy's PCG64 in chunks, so a stopped run resumes the same stream.
 """
 
@@ -136,6 +139,51 @@ def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, y
 
 
 @njit(cache=True)
+def _anderson(y, d, f_prev, g_prev, df, dg, na, m):
+    """One Anderson-accelerated chord update, in place: y ← g − ΔG γ with
+    γ = argmin ‖F − ΔF γ‖₂ over the last ≤ m differences of the chord steps F = d and of
+    their images g = y + d (Walker & Ni, SIAM J. Numer. Anal. 49, 1715 (2011))."""
+    ny = y.shape[0]
+    if na > 0:
+        slot = (na - 1) % m
+        for i in range(ny):
+            df[slot, i] = d[i] - f_prev[i]
+            dg[slot, i] = y[i] + d[i] - g_prev[i]
+    for i in range(ny):
+        f_prev[i] = d[i]
+        g_prev[i] = y[i] + d[i]
+    mk = min(na, m)
+    if mk == 0:
+        for i in range(ny):
+            y[i] += d[i]
+        return
+    a = np.zeros((mk, mk))
+    b = np.zeros(mk)
+    for p in range(mk):
+        for q in range(p, mk):
+            s = 0.0
+            for i in range(ny):
+                s += df[p, i] * df[q, i]
+            a[p, q] = s
+            a[q, p] = s
+        s = 0.0
+        for i in range(ny):
+            s += df[p, i] * d[i]
+        b[p] = s
+    tr = 0.0
+    for p in range(mk):
+        tr += a[p, p]
+    for p in range(mk):
+        a[p, p] += 1e-10 * tr + 1e-300
+    gam = np.linalg.solve(a, b)
+    for i in range(ny):
+        v = y[i] + d[i]
+        for p in range(mk):
+            v -= gam[p] * dg[p, i]
+        y[i] = v
+
+
+@njit(cache=True)
 def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT, torques, normals,
                    ws, ab, ipiv, jac_age, jac_every, work, tol, max_iter, slow, hist):
     """Advance y in place by ``n_steps`` drift-implicit steps of size ``dt``.
@@ -174,6 +222,9 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
     xi_f = np.zeros((n1, 3))
     xi_m = np.zeros(n1)
     xi_h = np.zeros(3)
+    aa_m = 4
+    aa_f, aa_g = np.zeros(ny), np.zeros(ny)
+    aa_df, aa_dg = np.zeros((aa_m, ny)), np.zeros((aa_m, ny))
     n_iter = 0
     n_jac = 0
     kv = KL + KU
@@ -205,6 +256,7 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
         # predictor y_n: the linear solve filters the noise through the stiff modes
         converged = False
         prev = np.inf
+        na = 0  # Anderson history (differences of chord steps and of their images)
         for it in range(max_iter):
             fresh = jac_age < 0 or jac_age >= jac_every
             if fresh:
@@ -218,26 +270,28 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
                     return 1, k, n_iter, n_jac, -1
                 jac_age = 0
                 n_jac += 1
+                na = 0
             K.rhs(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
             for i in range(ny):
                 d[i] = -(y[i] - fn[i] - beta * dt * f[i])
             band_solve(ab, KL, KU, ipiv, d)
             err = 0.0
             for i in range(ny):
-                y[i] += d[i]
                 err = max(err, abs(d[i]))
             n_iter += 1
             if not np.isfinite(err):
                 break
             if err < tol:
+                for i in range(ny):
+                    y[i] += d[i]
                 converged = True
                 break
-            if err > slow * prev and not fresh:  # stale Jacobian too slow: undo, refresh
-                for i in range(ny):
-                    y[i] -= d[i]
+            if err > slow * prev and not fresh:  # stale Jacobian too slow: refresh here
                 jac_age = -1
-            else:
-                prev = err
+                continue
+            prev = err
+            _anderson(y, d, aa_f, aa_g, aa_df, aa_dg, na, aa_m)
+            na += 1
         if not converged:
             y[:] = yn  # leave the state at the start of the failed step
             return 1, k, n_iter, n_jac, -1
@@ -268,7 +322,7 @@ class ImplicitStepper:
 
     def __init__(self, model, t0: float, y0: np.ndarray, dt: float, kT: float = 0.0,
                  seed: int = 0, rng_state=None, theta: float | None = None,
-                 jac_every: int = 20, tol: float = NEWTON_TOL, slow: float = 0.3, max_iter: int = 20):
+                 jac_every: int = 50, tol: float = NEWTON_TOL, slow: float = 0.99, max_iter: int = 30):
         self.model = model
         self.dt = float(dt)
         self.kT = float(kT)

@@ -102,13 +102,15 @@ def mpl():
     return plt
 
 
-def save_figure(fig, out_dir: Path, name: str, title: str | None = None) -> list[Path]:
-    """Write ``name.png`` (150 dpi) and ``name.pdf`` (after an optional suptitle and a
-    tight layout); close the figure."""
+def save_figure(fig, out_dir: Path, name: str, title: str | None = None,
+                tight: bool = True) -> list[Path]:
+    """Write ``name.png`` (150 dpi) and ``name.pdf`` (after an optional suptitle and, with
+    ``tight``, a tight layout); close the figure."""
     plt = mpl()
     if title is not None:
         fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
+    if tight:
+        fig.tight_layout()
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / f"{name}.png", out_dir / f"{name}.pdf"]
     fig.savefig(paths[0], dpi=150, bbox_inches="tight")

@@ -177,7 +177,7 @@ def plot(points, ana, rft, crit, quality, out_dir: Path):
         if k == 3:
             axb.set_xlabel("t − t$_0$ [s]")
             axc.set_xlabel("$t_x$")
-    return save_figure(fig, out_dir, "fig3")
+    return save_figure(fig, out_dir, "fig3", tight=False)
 
 
 def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:

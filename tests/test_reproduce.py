@@ -152,3 +152,22 @@ def test_out_is_a_file_exit_2(tmp_path, capsys):
     f.write_text("x")
     assert run(["reproduce", "fig6", "--out", str(f)]) == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_fig5_simulation_checks_bracket_each_critical_torque(monkeypatch):
+    """Full quality simulates 10 % below and above M_c1 at each checked 1/a; a run counts as
+    agreeing when it is aligned below and buckled (or oscillating) above."""
+    from flagellum.reproduce import fig5
+
+    points = [{"inv_a": v, "M_c1": 1.0 + v} for v in (0.0, 0.5, 1.0, 2.0, 3.0)]
+    monkeypatch.setattr(fig5, "pmap", lambda f, jobs: [
+        {**j, "regime": "aligned" if j["torque"] < 1.0 + j["inv_a"] else "buckled"} for j in jobs])
+    sims = fig5.confirmations(points, "full")
+    assert [(c["inv_a"], c["side"]) for c in sims] == [(v, s) for v in (0.5, 1.0, 2.0, 3.0)
+                                                       for s in ("below", "above")]
+    for c in sims:
+        factor = 0.9 if c["side"] == "below" else 1.1
+        assert c["torque"] == pytest.approx(factor * (1.0 + c["inv_a"]))
+        assert fig5._as_expected(c)
+    assert not fig5._as_expected({"side": "above", "regime": "aligned"})
+    assert fig5.confirmations(points, "quick") == []

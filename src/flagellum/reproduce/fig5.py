@@ -13,6 +13,9 @@ Method
   (biological cell sizes a ≈ 1–2 µm), next to eq. (25) with the full-turn RFT coefficients
   and our anchored F_c1 (:func:`flagellum.hydro.rft.critical_torque_line`).
 * "Linear up to 1/a": the first 1/a where M_c1 falls more than 5 % below the fitted line.
+* ``full`` quality checks the linear-stability M_c1 by simulation (the paper's dots): at
+  1/a = 0.5, 1, 2, 3 µm⁻¹ a 1-s run at 0.9 M_c1 must stay aligned and one at 1.1 M_c1 buckle
+  (:class:`flagellum.analysis.bifurcations.RunConfig`, regimes from the observables).
 * The collapse of F_c1 at large 1/a: the M_c1 where F_c1 has fallen to half its plateau
   (linear interpolation), and a fit F_c1 = c (M*² − M_c1²) over the points below 80 % of
   the plateau (the classical F_c + M_c²/(4A) law of eq. (1), with M* the free-swimmer limit).
@@ -31,6 +34,8 @@ INV_A = {"quick": (0.0, 0.5, 1.0, 2.0, 4.0, 10.0, 20.0),
          "full": (0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 8.0, 10.0,
                   15.0, 20.0, 30.0, 50.0)}
 FIT_MAX_INV_A = 1.0
+#: simulations that check the linear-stability M_c1: (1/a values, ± fraction, simulated time)
+CONFIRM = {"quick": ((), 0.1, 1.0), "full": ((0.5, 1.0, 2.0, 3.0), 0.1, 1.0)}
 
 
 def _theory(inv_a, radius_correction=False):
@@ -66,6 +71,31 @@ def _critical(job: dict) -> dict:
             last = str(exc)
             break
     return {"inv_a": inv_a, "error": last, "wall_seconds": timer.seconds}
+
+
+def _confirm(job: dict) -> dict:
+    """A simulation at ``torque`` with the load sphere of 1/a: its regime (paper's dots)."""
+    from ..analysis.bifurcations import RunConfig
+    from ..motor import Boundary
+    from ..params import Params
+
+    run = RunConfig(Params(), Boundary(anchor="sphere", sphere_radius=1.0 / job["inv_a"]), job["t_end"])
+    probe, _ = run(job["torque"])
+    return {**job, **{k: probe.get(k) for k in ("regime", "thrust", "sigma_over_sigma0",
+                                                 "centroid_offset", "wall_seconds", "error")}}
+
+
+def _as_expected(c: dict) -> bool:
+    return c.get("regime") in (("aligned",) if c["side"] == "below" else ("buckled", "oscillating"))
+
+
+def confirmations(points: list[dict], quality: str) -> list[dict]:
+    """Simulate just below and above the linear-stability M_c1 at a few 1/a."""
+    inv, frac, t_end = CONFIRM[quality]
+    mc = {p["inv_a"]: p["M_c1"] for p in points if "error" not in p}
+    jobs = [{"inv_a": v, "torque": mc[v] * (1 + s * frac), "side": "below" if s < 0 else "above",
+             "t_end": t_end, "cost": mc[v]} for v in inv if v in mc for s in (-1, 1)]
+    return pmap(_confirm, jobs) if jobs else []
 
 
 def analyse(points: list[dict], F_anchored: float) -> dict:
@@ -113,13 +143,19 @@ def _theory_lines(a, theory, x: str, y: str) -> None:
                label="rod theory §4" + (", radius correction" if rc else ", constant friction"))
 
 
-def plot(ana, theory, crit0, quality, out_dir: Path):
+def plot(ana, theory, crit0, quality, out_dir: Path, sims=()):
     plt = mpl()
     fig, axs = plt.subplots(1, 2, figsize=(12, 5))
     x, M, F = ana["x"], ana["M"], ana["F"]
     a = axs[0]
     a.plot(x, M, "o-", color="tab:blue", label="linear stability (N = 50)")
     _theory_lines(a, theory, "parameter", "M")
+    for side, mfc, lab in (("below", "none", "simulation: aligned"), ("above", "tab:red", "simulation: buckled")):
+        pts = [c for c in sims if c["side"] == side]
+        if pts:
+            ok = [c for c in pts if _as_expected(c)]
+            a.plot([c["inv_a"] for c in ok], [c["torque"] for c in ok], "s", color="tab:red",
+                   mfc=mfc, ms=7, label=f"{lab} (±10 % of $M_{{c1}}$)")
     a.set(xlabel="inverse sphere radius 1/a [1/µm]", ylabel="critical torque $M_{c1}$ [pN·µm]",
           title=f"(a) critical torque versus 1/a (quality {quality})")
     a.legend(fontsize=8, loc="upper left")
@@ -175,7 +211,8 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
     dense = np.unique(np.concatenate([np.linspace(0, 5, 21), extra[extra <= max(INV_A[quality])],
                                       np.array(INV_A[quality])]))
     theory = {rc: _theory(dense, rc) for rc in (False, True)}
-    files = plot(ana, theory, M0, quality, out_dir)
+    sims = confirmations(points, quality)
+    files = plot(ana, theory, M0, quality, out_dir, sims)
     cols = ("inv_a", "a", "M_c1", "F_c1", "omega", "velocity", "chi_onset", "wall_seconds", "error")
     files.append(write_csv(out_dir / "critical.csv", {c: [p.get(c, "") for p in points] for c in cols}))
     tcols = ("parameter", "M", "F", "m_hat", "f_par", "f_perp", "chi")
@@ -217,6 +254,13 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
     cmp.add("torque where F_c1 → 0 (fit F_c1 = c(M*² − M_c1²))", PAPER["M_c1_quadratic"][0], ana["M_star"],
             "pN·µm", f"fit over {ana['parabola_points']} points below 80 % of the plateau"
             if math.isfinite(ana["M_star"]) else "too few points in the collapse for a fit")
+    if sims:
+        good = [c for c in sims if _as_expected(c)]
+        cmp.add("simulations that agree with the linear-stability M_c1 (aligned at 0.9 M_c1, buckled "
+                "at 1.1 M_c1) [paper: M_c1(1/a) from simulations]", len(sims), len(good), "runs",
+                "1/a = " + ", ".join(f"{v:g}" for v in CONFIRM[quality][0]) + f" µm⁻¹, "
+                f"{CONFIRM[quality][2]:g} s each; regimes: "
+                + "; ".join(f"{c['inv_a']:g} {c['side']}: {c.get('regime')}" for c in sims))
     cmp.note("The paper states F_c1 ∝ M_c1² 'near M_c1 ≈ 4'; we read it as the classical law "
              "F_c ∝ M*² − M_c² of eq. (1) and report where the collapse happens.")
     cmp.note("All M_c1, F_c1 here come from linear stability of the aligned state (a Hopf point); "
@@ -236,4 +280,5 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
             "linear_until_inv_a": ana["linear_until"], "M_c1_at_half_F_c1": ana["M_half"],
             "M_star": ana["M_star"],
             "points": [{k: p.get(k) for k in ("inv_a", "M_c1", "F_c1", "error") if k in p} for p in points],
+            "simulations": [{k: c.get(k) for k in ("inv_a", "torque", "side", "regime", "thrust")} for c in sims],
             "quality": quality, "wall_seconds": timer.seconds, "files": [str(f) for f in files]}

@@ -33,7 +33,7 @@ def _chart_gradient(m, y):
     n = m.n
     T, E1, E2, S = (np.zeros((n + 1, 3)) for _ in range(4))
     L = np.zeros(n + 1)
-    K.frames(y, n, m.ref_u, m.ref_e, T, E1, E2, L, S)
+    K.frames(y, n, m.ref_u, m.ref_e, T, E1, E2, L, S, np.zeros((n + 1, 3)))
     out = dr.copy()
     for i in range(1, n + 1):
         g = dth[i] * S[i]
@@ -63,7 +63,7 @@ def test_hook_torque_is_rotation_derivative():
     torque = np.cross(u, gt[0]) + dth[0] * u
     n = m.n
     T, E1, E2, S = (np.zeros((n + 1, 3)) for _ in range(4))
-    K.frames(y, n, m.ref_u, m.ref_e, T, E1, E2, np.zeros(n + 1), S)
+    K.frames(y, n, m.ref_u, m.ref_e, T, E1, E2, np.zeros(n + 1), S, np.zeros((n + 1, 3)))
 
     def rotated(axis, eps):
         # rotate frame 0 rigidly by eps about axis: u → R u, θ0 → θ0 + eps a·t − s·δt

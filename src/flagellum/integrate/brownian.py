@@ -55,7 +55,7 @@ def thermal_forces(y, prm, iprm, ref_u, ref_e, kT, dt, g_f, g_m, g_h, ws, xi_f, 
     n = iprm[K.I_N]
     h, gpar, gperp, grot = prm[K.P_H], prm[K.P_GPAR], prm[K.P_GPERP], prm[K.P_GROT]
     T, E1, E2, LEN, S = ws[0], ws[1], ws[2], ws[3], ws[4]
-    K.frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S)
+    K.frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, ws[9])
     c = math.sqrt(2.0 * kT / dt)
     for i in range(n + 1):
         tx, ty, tz, wf = _bead_tangent(T, i, n)
@@ -234,7 +234,7 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
         # charts centred on the current tangents: the spin connection s vanishes at y_n, which
         # decouples the angles from the stiff bead motions within the step (and leaves the
         # angles of y_{n−1} unchanged: transport there and back is the identity)
-        K.rechart_all(y, n, ref_u, ref_e, T, E1, E2, LEN, S)
+        K.rechart_all(y, n, ref_u, ref_e, T, E1, E2, LEN, S, ws[9])
         yn[:] = y
         b[:] = 0.0
         if kT > 0.0:

@@ -45,8 +45,9 @@ def _cross(a0, a1, a2, b0, b1, b2):
 
 
 @njit(cache=True)
-def frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S):
-    """Fill tangents T, material vectors E1, E2, bond lengths LEN and spin connections S.
+def frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
+    """Fill tangents T, material vectors E1, E2, bond lengths LEN, spin connections S and
+    reference vectors A1 = P(u→t) e (so that E1 = cos θ A1 + sin θ t × A1).
 
     Arrays have shape (n+1, 3) (LEN: n+1); row 0 is the hook frame (LEN[0] = |u0|).
     """
@@ -69,6 +70,7 @@ def frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S):
         ce = (cx * ex + cy * ey + cz * ez) / (1.0 + d)
         a1x, a1y, a1z = d * ex + qx + ce * cx, d * ey + qy + ce * cy, d * ez + qz + ce * cz
         a2x, a2y, a2z = _cross(tx, ty, tz, a1x, a1y, a1z)
+        A1[i, 0], A1[i, 1], A1[i, 2] = a1x, a1y, a1z
         th = y[6 + 4 * i]
         co, si = math.cos(th), math.sin(th)
         E1[i, 0], E1[i, 1], E1[i, 2] = co * a1x + si * a2x, co * a1y + si * a2y, co * a1z + si * a2z
@@ -78,9 +80,9 @@ def frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S):
 
 @njit(cache=True)
 def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e, ref_m,
-            T, E1, E2, LEN, S, GT, GTH):
+            T, E1, E2, LEN, S, GT, GTH, A1):
     """Elastic energy; fills GT (n+1, 3) = ∂E/∂t at fixed material spin, GTH = ∂E/∂θ."""
-    frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S)
+    frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1)
     GT[:, :] = 0.0
     GTH[:] = 0.0
     energy = 0.0
@@ -108,9 +110,8 @@ def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e, ref_m,
         # last known value ref_m[b]: ψ is never wrapped, so the energy has no cusp and a 2π
         # twist costs what it should (no spurious twist slips).
         tha, thb = y[6 + 4 * a], y[6 + 4 * b]
-        ca, sa, cb, sb = math.cos(tha), math.sin(tha), math.cos(thb), math.sin(thb)
-        vx, vy, vz = ca * E1[a, 0] - sa * E2[a, 0], ca * E1[a, 1] - sa * E2[a, 1], ca * E1[a, 2] - sa * E2[a, 2]
-        rx, ry, rz = cb * e1x - sb * e2x, cb * e1y - sb * e2y, cb * e1z - sb * e2z
+        vx, vy, vz = A1[a, 0], A1[a, 1], A1[a, 2]
+        rx, ry, rz = A1[b, 0], A1[b, 1], A1[b, 2]
         qx, qy, qz = _cross(cx, cy, cz, vx, vy, vz)
         cv = (cx * vx + cy * vy + cz * vz) / (1.0 + cosp)
         px, py, pz = cosp * vx + qx + cv * cx, cosp * vy + qy + cv * cy, cosp * vz + qz + cv * cz
@@ -145,27 +146,23 @@ def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e, ref_m,
 
 
 @njit(cache=True)
-def rechart_all(y, n, ref_u, ref_e, T, E1, E2, LEN, S):
+def rechart_all(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
     """Move every chart pole to its current tangent, keeping the reference vector a1 (and so
     θ and the reference twists) unchanged: discrete time-parallel transport."""
-    frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S)
+    frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1)
     for i in range(n + 1):
-        th = y[6 + 4 * i]
-        c, s = math.cos(th), math.sin(th)
         for k in range(3):
             ref_u[i, k] = T[i, k]
-            ref_e[i, k] = c * E1[i, k] - s * E2[i, k]
+            ref_e[i, k] = A1[i, k]
 
 
 @njit(cache=True)
-def reference_twists(n, T, E1, E2, y, out):
+def reference_twists(n, T, A1, out):
     """Raw reference twist m_b ∈ (−π, π] of every joint (a, b) (see :func:`elastic`)."""
     for b in range(1, n + 1):
         a = b - 1
-        tha, thb = y[6 + 4 * a], y[6 + 4 * b]
-        ca, sa, cb, sb = math.cos(tha), math.sin(tha), math.cos(thb), math.sin(thb)
-        vx, vy, vz = ca * E1[a, 0] - sa * E2[a, 0], ca * E1[a, 1] - sa * E2[a, 1], ca * E1[a, 2] - sa * E2[a, 2]
-        rx, ry, rz = cb * E1[b, 0] - sb * E2[b, 0], cb * E1[b, 1] - sb * E2[b, 1], cb * E1[b, 2] - sb * E2[b, 2]
+        vx, vy, vz = A1[a, 0], A1[a, 1], A1[a, 2]
+        rx, ry, rz = A1[b, 0], A1[b, 1], A1[b, 2]
         cx, cy, cz = _cross(T[a, 0], T[a, 1], T[a, 2], T[b, 0], T[b, 1], T[b, 2])
         cosp = T[a, 0] * T[b, 0] + T[a, 1] * T[b, 1] + T[a, 2] * T[b, 2]
         qx, qy, qz = _cross(cx, cy, cz, vx, vy, vz)
@@ -204,10 +201,11 @@ I_N, I_HOOK, I_ANCHOR, I_GEN = range(4)
 
 @njit(cache=True)
 def workspace(n):
+    """(T, E1, E2, LEN, S, GT, GTH, DR, V, A1): see :func:`frames`, :func:`elastic`, :func:`rhs`."""
     n1 = n + 1
     return (np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros(n1),
             np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros(n1), np.zeros((n1, 3)),
-            np.zeros((n1, 3)))
+            np.zeros((n1, 3)), np.zeros((n1, 3)))
 
 
 @njit(cache=True)
@@ -229,9 +227,9 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
     h = prm[P_H]
     gpar, gperp, grot = prm[P_GPAR], prm[P_GPERP], prm[P_GROT]
     omega_frame = prm[P_OMEGA]
-    T, E1, E2, LEN, S, GT, GTH, DR, V = ws
+    T, E1, E2, LEN, S, GT, GTH, DR, V, A1 = ws
     energy = elastic(y, n, h, prm[P_A], prm[P_C], prm[P_K], prm[P_KAPPA], prm[P_TAU],
-                     prm[P_HOOKK], ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH)
+                     prm[P_HOOKK], ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH, A1)
     bead_gradient(n, h, prm[P_K], T, LEN, GT, DR)
     el = prm[P_ELASTIC]
     f0x, f0y, f0z = -DR[0, 0], -DR[0, 1], -DR[0, 2]

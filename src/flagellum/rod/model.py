@@ -98,9 +98,10 @@ class RodModel:
     def update_reference_twists(self, y: np.ndarray) -> None:
         """Follow the branch of each joint's reference twist (call between steps)."""
         T, E1, E2, L, S = self._ws[:5]
-        K.frames(y, self.n, self.ref_u, self.ref_e, T, E1, E2, L, S)
+        A1 = self._ws[9]
+        K.frames(y, self.n, self.ref_u, self.ref_e, T, E1, E2, L, S, A1)
         raw = np.zeros(self.n + 1)
-        K.reference_twists(self.n, T, E1, E2, y, raw)
+        K.reference_twists(self.n, T, A1, raw)
         self.ref_m[1:] = raw[1:] + 2 * np.pi * np.round((self.ref_m[1:] - raw[1:]) / (2 * np.pi))
 
     def rechart(self, y: np.ndarray, threshold: float = -0.5) -> bool:
@@ -111,15 +112,13 @@ class RodModel:
         """
         self.update_reference_twists(y)
         T, E1, E2, L, S = self._ws[:5]
-        K.frames(y, self.n, self.ref_u, self.ref_e, T, E1, E2, L, S)
+        A1 = self._ws[9]
+        K.frames(y, self.n, self.ref_u, self.ref_e, T, E1, E2, L, S, A1)
         bad = np.einsum("ij,ij->i", T, self.ref_u) < threshold
         if not bad.any():
             return False
-        th = angles(y)[bad]
-        c, s = np.cos(th), np.sin(th)
-        a1 = c[:, None] * E1[bad] - s[:, None] * E2[bad]
         self.ref_u[bad] = T[bad]
-        self.ref_e[bad] = a1
+        self.ref_e[bad] = A1[bad]
         return True
 
     def charts(self):
@@ -141,7 +140,8 @@ class RodModel:
 
     def energy(self, y: np.ndarray) -> float:
         """Elastic energy [pN·µm] (bending, twist, stretching, hook)."""
-        return K.elastic(y, *self._kernel_args(), self.ref_u, self.ref_e, self.ref_m, *self._ws[:7])
+        return K.elastic(y, *self._kernel_args(), self.ref_u, self.ref_e, self.ref_m, *self._ws[:7],
+                         self._ws[9])
 
     def gradients(self, y: np.ndarray):
         """(E, ∂E/∂r (n+1,3), ∂E/∂θ (n+1), G_t (n+1,3)) with frames transported (gauge-free)."""

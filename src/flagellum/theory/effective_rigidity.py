@@ -58,7 +58,7 @@ def _frame_rotation(model, y, rot0) -> np.ndarray:
     """Small-rotation vector of the last material frame of state y relative to rot0
     (exact to O(|Θ|³))."""
     T, E1, E2, LEN, S = model._ws[:5]
-    K.frames(y, model.n, model.ref_u, model.ref_e, T, E1, E2, LEN, S)
+    K.frames(y, model.n, model.ref_u, model.ref_e, T, E1, E2, LEN, S, model._ws[9])
     a = np.stack([E1[-1], E2[-1], T[-1]], axis=1) @ rot0.T
     a = (a - a.T) / 2
     return np.array([a[2, 1], a[0, 2], a[1, 0]])
@@ -94,7 +94,7 @@ def bending_compliance(params: Params | None = None, directions=((1.0, 0, 0), (0
                 y[j] -= sj * step
             H[a, b] = H[b, a] = e / (4 * step * step)
     ws = model._ws
-    K.frames(y0, model.n, model.ref_u, model.ref_e, *ws[:5])
+    K.frames(y0, model.n, model.ref_u, model.ref_e, *ws[:5], ws[9])
     rot0 = np.stack([ws[1][-1], ws[2][-1], ws[0][-1]], axis=1)
     G = np.empty((n, 3))
     for a, i in enumerate(free):

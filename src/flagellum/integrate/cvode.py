@@ -19,9 +19,11 @@ KL, KU = 15, 12  #: Jacobian bandwidths of the bead-by-bead state ordering
 
 @njit(cache=True)
 def _band_to_dense(ab, kl, ku, out):
+    """Copy the band of ``ab`` into the (n, n) array that scikit-sundae hands to the Jacobian
+    callback; it reads back only the band, so the rest is not touched (zeroing all n² entries
+    made the Jacobian cost quadratic in N)."""
     n = ab.shape[0]
     kv = kl + ku
-    out[:, :] = 0.0
     for j in range(n):
         for i in range(max(0, j - ku), min(n, j + kl + 1)):
             out[i, j] = ab[j, kv + i - j]

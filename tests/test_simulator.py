@@ -193,3 +193,61 @@ def test_bdf2_keeps_the_buckling_mode_that_implicit_euler_damps():
     assert ref < 1.1  # buckled (aligned thrust ≈ 1.57 pN)
     assert abs(thrust(method="implicit", dt=5e-5) - ref) < 0.05 * ref
     assert thrust(method="implicit", dt=5e-5, theta=1.0) > 1.4
+
+
+def _free_swimmer(a: float, t_end: float = 0.1):
+    sim = Simulator(Params(), Motor(1.0), Boundary(anchor="free", sphere_radius=a),
+                    solver=SolverOptions(frame="lab", rtol=1e-9, atol=1e-11))
+    tr = sim.run(t_end, save_every=t_end / 50)
+    from flagellum.rod.model import positions
+
+    pos = positions(sim.y)
+    vel = sim.model.rhs(sim.t, sim.y)[3:].reshape(-1, 4)[:, :3]
+    w = np.full(len(pos), 0.2)  # bead lengths: h, h/2 at the ends (paper §2.2)
+    w[0] = w[-1] = 0.1
+    e3 = np.diff(pos, axis=0)
+    e3 /= np.linalg.norm(e3, axis=1)[:, None]
+    tan = np.vstack([e3[:1], e3[:-1] + e3[1:], e3[-1:]])
+    tan /= np.linalg.norm(tan, axis=1)[:, None]
+    return tr, pos, vel, tan, w
+
+
+def test_free_swimmer_is_force_free():
+    """No anchor: the drag on the beads (w[γ∥tt + γ⊥(1 − tt)] v) and on the body (6πηa v0)
+    add up to zero at every instant (the elastic forces are internal)."""
+    gp, gn, _ = Params().gammas
+    for a in (0.0, 0.5):
+        tr, pos, vel, tan, w = _free_swimmer(a, 0.02)
+        tt = tan[:, :, None] * tan[:, None, :]
+        drag = np.einsum("nij,nj->ni", w[:, None, None] * (gp * tt + gn * (np.eye(3) - tt)), vel)
+        total = drag.sum(axis=0) + 6 * math.pi * 1e-3 * a * vel[0]
+        assert np.abs(total).max() < 1e-12 * np.abs(drag).max() * len(drag)
+
+
+def test_free_swimmer_speed_matches_rigid_resistive_force_theory():
+    """Swimming speed and rotation rate of the free swimmer (body a = 0.5 µm) against the
+    force- and torque-free rigid-body RFT solution for its instantaneous shape (6×6
+    resistance about bead 0 plus the body's 6πηa, motor torque M e_z on the filament)."""
+    p = Params()
+    tr, pos, vel, tan, w = _free_swimmer(0.5)
+    R = rft.resistance_matrix(pos, tan, w, *p.gammas, origin=pos[0])
+    R[:3, :3] += 6 * math.pi * p.fluid.viscosity * 0.5 * np.eye(3)
+    U = np.linalg.solve(R, [0, 0, 0, 0, 0, 1.0])
+    s = tr.summary()
+    assert s.swimming_speed > 0  # pushed forward, body first (+z)
+    assert vel[0, 2] == pytest.approx(U[2], rel=0.02)
+    assert s.swimming_speed == pytest.approx(U[2], rel=0.03)
+    assert s.omega_mean == pytest.approx(U[5], rel=0.03)
+
+
+def test_free_swimmer_boundary_and_limits():
+    b = Boundary(anchor="free")
+    assert b.sphere_radius == 0.0 and b.sphere_drag(1e-3) == 0.0
+    assert math.isnan(b.body_rotation_rate(1.0, 1e-3))
+    b = Boundary(anchor="free", sphere_radius=1.0)
+    assert b.body_rotation_rate(1.0, 1e-3) == pytest.approx(-1.0 / (8 * math.pi * 1e-3))
+    with pytest.raises(ParameterError, match="sphere_radius"):
+        Boundary(anchor="free", sphere_radius=-1.0)
+    from flagellum.analysis.stability import relative_equilibrium
+    with pytest.raises(ParameterError, match="anchor"):
+        relative_equilibrium(Params(), 1.0, b)

@@ -146,9 +146,11 @@ def motor_boundary_options(func):
                      help="motor torque M [pN·µm] (> 0 pushes)"),
         click.option("--ramp-time", type=float, default=0.0, show_default=True,
                      help="ramp the torque on smoothly over this time [s]"),
-        click.option("--anchor", type=click.Choice(["fixed", "sphere"]), default="fixed",
-                     show_default=True, help="first bead anchored or on a load sphere"),
-        click.option("--sphere-radius", type=float, default=None, help="load sphere radius a [µm]"),
+        click.option("--anchor", type=click.Choice(["fixed", "sphere", "free"]), default="fixed",
+                     show_default=True, help="first bead anchored, on a load sphere moving along z, "
+                     "or free (force- and torque-free swimmer with a body sphere)"),
+        click.option("--sphere-radius", type=float, default=None,
+                     help="load sphere / body radius a [µm] (free: default 0, the filament alone)"),
         click.option("--hook", type=click.Choice(["free", "elastic", "clamped"]), default="free",
                      show_default=True, help="hook: free joint (paper), elastic, clamped"),
         click.option("--hook-stiffness", type=float, default=0.0, help="hook stiffness k [pN·µm]"),
@@ -230,6 +232,9 @@ def _report_run(sim, traj, average_from, output, as_json):
     out = {**traj.summary(average_from).to_dict(), "steps": sim.steps,
            "wall_seconds": sim.wall_seconds, "torque": sim.motor.final_torque,
            "segments": sim.params.filament.n_segments}
+    if sim.boundary.anchor == "free" and sim.boundary.sphere_radius:
+        out["body_rotation_rate"] = sim.boundary.body_rotation_rate(sim.motor.final_torque,
+                                                                    sim.params.fluid.viscosity)
     if output:
         out["output"] = str(output)
     if as_json:

@@ -68,16 +68,27 @@ class Boundary:
     hook_stiffness: float = 0.0  #: k [pN·µm] for ``hook="elastic"``
 
     def __post_init__(self):
-        check_choice("anchor", self.anchor, ("fixed", "sphere"))
+        check_choice("anchor", self.anchor, ("fixed", "sphere", "free"))
         check_choice("hook", self.hook, ("free", "elastic", "clamped"))
         if self.anchor == "sphere":
             if self.sphere_radius is None:
                 raise ParameterError("sphere_radius", None, "given (a number > 0) with anchor = 'sphere'")
             object.__setattr__(self, "sphere_radius", positive("sphere_radius", self.sphere_radius, 1e6))
+        if self.anchor == "free":  # a free swimmer; radius 0: the filament alone
+            a = 0.0 if self.sphere_radius is None else self.sphere_radius
+            object.__setattr__(self, "sphere_radius", check_range("sphere_radius", a, 0.0, 1e6, lo_open=False))
         k = check_range("hook_stiffness", self.hook_stiffness, 0.0, 1e6, lo_open=False)
         if self.hook == "elastic" and k == 0:
             raise ParameterError("hook_stiffness", k, "> 0 with hook = 'elastic'")
         object.__setattr__(self, "hook_stiffness", k if self.hook == "elastic" else 0.0)
 
     def sphere_drag(self, viscosity: float) -> float:
-        return 6 * math.pi * viscosity * self.sphere_radius if self.anchor == "sphere" else 0.0
+        """Stokes drag 6πηa of the load sphere or of a free swimmer's body [pN·s/µm]."""
+        return 6 * math.pi * viscosity * self.sphere_radius if self.anchor != "fixed" else 0.0
+
+    def body_rotation_rate(self, torque: float, viscosity: float) -> float:
+        """Counter-rotation of a free swimmer's body about the motor axis, −M/(8πηa³) [rad/s]:
+        the motor's reaction torque; a body centred on the hook feels no other torque."""
+        if self.anchor != "free" or not self.sphere_radius:
+            return math.nan
+        return -torque / (8 * math.pi * viscosity * self.sphere_radius ** 3)

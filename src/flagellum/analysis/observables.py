@@ -77,6 +77,7 @@ class Summary:
     end_to_end_std: float
     energy_final: float
     centroid_offset: float
+    swimming_speed: float  #: mean velocity of bead 0 along e_z [µm/s] (0 when anchored)
     t_from: float
     t_end: float
     samples: int
@@ -101,10 +102,12 @@ def summarize(t, thrust, motor_angle, positions, energy, helix_radius: float,
     th = np.asarray(thrust)[sel]
     r = end_to_end(np.asarray(positions)[sel])
     m, err = block_average(th)
-    chi, rho = precession_rate(t[sel], np.asarray(positions)[sel], 0.25 * helix_radius)
+    rel = np.asarray(positions)[sel] - np.asarray(positions)[sel][:, :1]  # about the motor (bead 0)
+    chi, rho = precession_rate(t[sel], rel, 0.25 * helix_radius)
     return Summary(thrust_mean=m, thrust_std=float(th.std()), thrust_err=err,
                    omega_mean=(float(np.mean(np.asarray(motor_speed)[sel])) if motor_speed is not None
                                else _slope(t[sel], np.asarray(motor_angle)[sel])), chi_mean=chi,
                    end_to_end_mean=float(r.mean()), end_to_end_std=float(r.std()),
                    energy_final=float(np.asarray(energy)[-1]), centroid_offset=rho,
+                   swimming_speed=_slope(t[sel], np.asarray(positions)[sel][:, 0, 2]),
                    t_from=float(t_from), t_end=float(t[-1]), samples=int(sel.sum()))

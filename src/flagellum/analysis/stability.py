@@ -268,6 +268,9 @@ class _Branch:
     """Continuation of the aligned state in M for fixed params and boundary (cached)."""
 
     def __init__(self, params: Params, boundary: Boundary, tol: float = 1e-10, max_iter: int = 25):
+        if boundary.anchor == "free":
+            raise ParameterError("anchor", "free", "'fixed' or 'sphere' for the stability analysis "
+                                 "(a free swimmer's lateral drift is not quotiented out)")
         self.params, self.boundary = params, boundary
         self.tol, self.max_iter = tol, max_iter
         self.solutions: list[RelativeEquilibrium] = []

@@ -74,6 +74,11 @@ def thermal_forces(y, prm, iprm, ref_u, ref_e, kT, dt, g_f, g_m, g_h, ws, xi_f, 
                 zz = w * (gpar * tz * tz + gperp * (1.0 - tz * tz)) + prm[K.P_SPHERE]
                 xi_f[0, 0] = xi_f[0, 1] = 0.0
                 xi_f[0, 2] = c * math.sqrt(zz) * gz
+            else:  # free body sphere: friction w R_rft + 6πηa
+                a, b = c * math.sqrt(w * gpar + prm[K.P_SPHERE]), c * math.sqrt(w * gperp + prm[K.P_SPHERE])
+                xi_f[0, 0] = a * gt * tx + b * (gx - gt * tx)
+                xi_f[0, 1] = a * gt * ty + b * (gy - gt * ty)
+                xi_f[0, 2] = a * gt * tz + b * (gz - gt * tz)
         xi_m[i] = c * math.sqrt(grot * h) * g_m[i] if i > 0 else 0.0
     tx, ty, tz = T[0, 0], T[0, 1], T[0, 2]
     gt = g_h[0] * tx + g_h[1] * ty + g_h[2] * tz

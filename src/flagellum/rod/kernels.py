@@ -275,6 +275,8 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
             continue
         ft = fx * tx + fy * ty + fz * tz
         ip, iq = 1.0 / (w * gpar), 1.0 / (w * gperp)
+        if i == 0 and anchor == ANCHOR_FREE:  # body sphere on bead 0: drag 6πηa added
+            ip, iq = 1.0 / (w * gpar + prm[P_SPHERE]), 1.0 / (w * gperp + prm[P_SPHERE])
         V[i, 0] = iq * fx + (ip - iq) * ft * tx
         V[i, 1] = iq * fy + (ip - iq) * ft * ty
         V[i, 2] = iq * fz + (ip - iq) * ft * tz

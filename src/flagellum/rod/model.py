@@ -15,7 +15,7 @@ from ..params import Params
 from . import kernels as K
 
 _HOOK = {"free": K.HOOK_FREE, "elastic": K.HOOK_ELASTIC, "clamped": K.HOOK_CLAMPED}
-_ANCHOR = {"fixed": K.ANCHOR_FIXED, "sphere": K.ANCHOR_SPHERE}
+_ANCHOR = {"fixed": K.ANCHOR_FIXED, "sphere": K.ANCHOR_SPHERE, "free": K.ANCHOR_FREE}
 
 
 def state_size(n: int) -> int:

@@ -228,10 +228,17 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
     gpar, gperp, grot = prm[P_GPAR], prm[P_GPERP], prm[P_GROT]
     omega_frame = prm[P_OMEGA]
     T, E1, E2, LEN, S, GT, GTH, DR, V, A1 = ws
-    energy = elastic(y, n, h, prm[P_A], prm[P_C], prm[P_K], prm[P_KAPPA], prm[P_TAU],
-                     prm[P_HOOKK], ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH, A1)
-    bead_gradient(n, h, prm[P_K], T, LEN, GT, DR)
     el = prm[P_ELASTIC]
+    if el == 0.0:  # mobility only (thermal increments): no elastic forces to compute
+        frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1)
+        GT[:, :] = 0.0
+        GTH[:] = 0.0
+        DR[:, :] = 0.0
+        energy = 0.0
+    else:
+        energy = elastic(y, n, h, prm[P_A], prm[P_C], prm[P_K], prm[P_KAPPA], prm[P_TAU],
+                         prm[P_HOOKK], ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH, A1)
+        bead_gradient(n, h, prm[P_K], T, LEN, GT, DR)
     f0x, f0y, f0z = -DR[0, 0], -DR[0, 1], -DR[0, 2]
     for i in range(n + 1):
         for k in range(3):

@@ -251,3 +251,21 @@ def test_free_swimmer_boundary_and_limits():
     from flagellum.analysis.stability import relative_equilibrium
     with pytest.raises(ParameterError, match="anchor"):
         relative_equilibrium(Params(), 1.0, b)
+
+
+def test_motor_angle_follows_the_motor_speed_when_buckled():
+    """The unwrapped hook angle (used for ω of thermal runs and their co-rotating frame)
+    stays consistent with the instantaneous motor speed ω·e_z in the buckled state, where
+    the hook tilts by β ≈ 45°: the twist about z runs at the hook's spin s, and
+    ω·e_z ≈ s cos β + O(χ), so s cos β ≤ ω·e_z ≤ s. (The twist was once taken from a
+    swing–twist split that is singular at the hook's rest orientation along −e_z; it gave
+    3884 rad/s here, and aliased by one turn per record in thermal runs.)"""
+    tr = Simulator(Params(), Motor(1.6)).run(0.3, save_every=1e-3)
+    sel = tr.t > 0.15
+    slope = np.polyfit(tr.t[sel], tr.motor_angle[sel], 1)[0]
+    cos_beta = -tr.hook_tangent[sel][:, 2].mean()
+    assert tr.summary().centroid_offset > 0.3 and cos_beta < 0.9  # buckled, hook tilted
+    assert slope * cos_beta <= tr.motor_speed[sel].mean() <= slope
+    th = Simulator(Params(), Motor(3.0), thermal=True, seed=2).run(0.05, save_every=0.05 / 300)
+    rigid = 3.0 * 700.0  # ≈ ω/M of the pinned rigid helix × M
+    assert 0.3 * rigid < th.summary(t_from=0.025).omega_mean < 2 * rigid

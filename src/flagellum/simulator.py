@@ -236,13 +236,17 @@ class Simulator:
     def _motor_angle(self) -> float:
         """Accumulated rotation of the hook frame about e_z (lab), continuous in time.
 
-        The twist about z of the hook frame (swing–twist split of its rotation,
-        2 atan2(R10 − R01, 1 + tr R)) is defined modulo 2π; it is unwrapped against the
-        rotation predicted from the last measured rate (at first the frame rate), so records
-        may be several turns apart as long as the rate changes by less than π per interval.
+        The twist about z of the hook frame relative to its rest orientation (tangent along
+        −e_z): the swing–twist split 2 atan2(R10 − R01, 1 + tr R) of R = D diag(1, −1, −1),
+        D = [e1 e2 t] (singular only for a hook turned to +e_z; the split of D itself is
+        singular at the rest orientation). It is defined modulo 2π and unwrapped against the
+        rotation predicted from the last measured rate (at first the frame rate; capped at
+        3× the rigid-helix rate, so a noisy interval cannot lock the unwrapping onto an alias
+        one turn per record away); records may be several turns apart as long as the rate
+        changes by less than π per interval.
         """
         T, E1, E2 = self.model._ws[0], self.model._ws[1], self.model._ws[2]
-        d = np.stack([E1[0], E2[0], T[0]], axis=1)  # frames at the state of the last rhs call
+        d = np.stack([E1[0], -E2[0], -T[0]], axis=1)  # D diag(1, −1, −1), at the last rhs call
         raw = 2.0 * math.atan2(d[1, 0] - d[0, 1], 1.0 + np.trace(d)) + self.frame_angle
         last = self._last_motor
         if last is None:
@@ -250,7 +254,8 @@ class Simulator:
         else:
             t0, raw0, angle0, rate0 = last
             dt = self.t - t0
-            pred = rate0 * dt
+            cap = 3.0 * self._omega_scale
+            pred = min(max(rate0, -cap), cap) * dt
             angle = angle0 + pred + (raw - raw0 - pred + math.pi) % (2 * math.pi) - math.pi
             rate = (angle - angle0) / dt if dt > 0 else rate0
         if not self.thermal and self.model.omega_frame == 0.0 and last is None:

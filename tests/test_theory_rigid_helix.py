@@ -82,3 +82,8 @@ def test_very_stiff_filament_moves_like_the_rigid_helix():
     e10 = _stiff_filament_vs_rigid(10.0)
     assert e100 < 5e-3
     assert e10 > 5 * e100
+
+
+def test_axis_along_the_torque_does_not_precess():
+    B = np.diag([1.0, 1.0, 0.1])
+    assert rotate(B, [0.0, 0.0, 1.0], 1.0, n_out=11).precession_rate() == 0.0

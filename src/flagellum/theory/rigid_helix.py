@@ -80,6 +80,8 @@ class RigidRotation:
         """Mean angular rate at which the helix axis turns about the torque."""
         m = self.torque / np.linalg.norm(self.torque)
         a = self.axis - np.outer(self.axis @ m, m)
+        if np.linalg.norm(a[0]) < 1e-12:  # axis along M: a fixed point, no precession
+            return 0.0
         e1 = a[0] / np.linalg.norm(a[0])
         e2 = np.cross(m, e1)
         phi = np.unwrap(np.arctan2(a @ e2, a @ e1))

@@ -266,6 +266,7 @@ def test_motor_angle_follows_the_motor_speed_when_buckled():
     cos_beta = -tr.hook_tangent[sel][:, 2].mean()
     assert tr.summary().centroid_offset > 0.3 and cos_beta < 0.9  # buckled, hook tilted
     assert slope * cos_beta <= tr.motor_speed[sel].mean() <= slope
+    assert tr.summary(t_from=0.1505).omega_mean == pytest.approx(slope, rel=0.02)  # paper's ω
     th = Simulator(Params(), Motor(3.0), thermal=True, seed=2).run(0.05, save_every=0.05 / 300)
     rigid = 3.0 * 700.0  # ≈ ω/M of the pinned rigid helix × M
     assert 0.3 * rigid < th.summary(t_from=0.025).omega_mean < 2 * rigid

@@ -128,12 +128,11 @@ class Trajectory:
         return self.records["positions"]
 
     def summary(self, t_from: float | None = None) -> Summary:
-        # deterministic: mean of the instantaneous motor speed (smooth); thermal: slope of the
-        # unwrapped motor angle (the instantaneous drift speed is dominated by stiff noise)
-        thermal = bool(self.meta.get("thermal", False))
-        return summarize(self.t, self.thrust, self.motor_angle if thermal else None,
-                         self.positions, self.energy, self.meta.get("helix_radius", 0.2), t_from,
-                         motor_speed=None if thermal else self.motor_speed)
+        """Time averages (:func:`flagellum.analysis.observables.summarize`). ω is the slope of
+        the unwrapped hook angle: the rotation rate about the local helix axis at the motor
+        (paper §3.1.2), also when the hook tilts (buckled: ω·e_z is smaller by cos β)."""
+        return summarize(self.t, self.thrust, self.motor_angle, self.positions, self.energy,
+                         self.meta.get("helix_radius", 0.2), t_from)
 
 
 class Simulator:

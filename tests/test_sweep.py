@@ -278,13 +278,15 @@ def test_cli_retry_failed(flaky, tmp_path, capsys):
 
 
 def test_resume_a_file_without_the_fallback_variable(flaky, tmp_path):
-    """Files of the previous format (no ``fallback``) resume; the variable is filled in."""
+    """Files of previous formats (no ``fallback``, no ``swimming_speed``) resume; the
+    variables are filled in."""
     import h5py
 
     path, sweep = tmp_path / "old.nc", Sweep.create({"torque": [0.5, 1.5]}, TINY)
     run_sweep(sweep, path)
     with h5py.File(path, "a") as f:
         del f["fallback"]
+        del f["swimming_speed"]
     report = run_sweep(sweep, path, retry_failed=True, fallback={"method": "implicit"})
     assert (report.skipped, report.computed, report.failed) == (1, 1, 0)
     assert list(read_sweep(path).data["fallback"]) == ["", json.dumps({"method": "implicit"})]

@@ -78,7 +78,7 @@ VARIABLES: dict[str, str] = {
     "fallback": "str",  #: JSON of the fallback settings that produced the point ("" = none)
 }
 #: variables that files of older versions lack (filled in on resume)
-_OPTIONAL = {"fallback"}
+_OPTIONAL = {"fallback", "swimming_speed"}
 #: what a fallback may change: solver settings only (the physics of a point stays fixed)
 FALLBACK_PARAMETERS = ("method", "rtol", "dt")
 _FILL = {"f8": math.nan, "i8": -1, "str": ""}

@@ -87,11 +87,9 @@ class Summary:
 
 
 def summarize(t, thrust, motor_angle, positions, energy, helix_radius: float,
-              t_from: float | None = None, motor_speed=None) -> Summary:
-    """Averages over t ≥ t_from (default: the last half of the run).
-
-    ω is the mean of ``motor_speed`` samples when given, else the slope of ``motor_angle``.
-    """
+              t_from: float | None = None) -> Summary:
+    """Averages over t ≥ t_from (default: the last half of the run); ω is the slope of the
+    unwrapped ``motor_angle`` (rotation rate about the local helix axis at the motor)."""
     t = np.asarray(t, float)
     if t_from is None:
         t_from = t[0] + 0.5 * (t[-1] - t[0])
@@ -105,8 +103,7 @@ def summarize(t, thrust, motor_angle, positions, energy, helix_radius: float,
     rel = np.asarray(positions)[sel] - np.asarray(positions)[sel][:, :1]  # about the motor (bead 0)
     chi, rho = precession_rate(t[sel], rel, 0.25 * helix_radius)
     return Summary(thrust_mean=m, thrust_std=float(th.std()), thrust_err=err,
-                   omega_mean=(float(np.mean(np.asarray(motor_speed)[sel])) if motor_speed is not None
-                               else _slope(t[sel], np.asarray(motor_angle)[sel])), chi_mean=chi,
+                   omega_mean=_slope(t[sel], np.asarray(motor_angle)[sel]), chi_mean=chi,
                    end_to_end_mean=float(r.mean()), end_to_end_std=float(r.std()),
                    energy_final=float(np.asarray(energy)[-1]), centroid_offset=rho,
                    swimming_speed=_slope(t[sel], np.asarray(positions)[sel][:, 0, 2]),

@@ -144,10 +144,11 @@ def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, y
 
 
 @njit(cache=True)
-def _anderson(y, d, f_prev, g_prev, df, dg, na, m):
+def _anderson(y, d, f_prev, g_prev, df, dg, a, gam, na, m):
     """One Anderson-accelerated chord update, in place: y ← g − ΔG γ with
     γ = argmin ‖F − ΔF γ‖₂ over the last ≤ m differences of the chord steps F = d and of
-    their images g = y + d (Walker & Ni, SIAM J. Numer. Anal. 49, 1715 (2011))."""
+    their images g = y + d (Walker & Ni, SIAM J. Numer. Anal. 49, 1715 (2011)); the normal
+    equations (m × m at most, regularized) are solved by Cholesky in the workspace a, gam."""
     ny = y.shape[0]
     if na > 0:
         slot = (na - 1) % m
@@ -158,29 +159,34 @@ def _anderson(y, d, f_prev, g_prev, df, dg, na, m):
         f_prev[i] = d[i]
         g_prev[i] = y[i] + d[i]
     mk = min(na, m)
-    if mk == 0:
-        for i in range(ny):
-            y[i] += d[i]
-        return
-    a = np.zeros((mk, mk))
-    b = np.zeros(mk)
+    tr = 0.0
     for p in range(mk):
         for q in range(p, mk):
             s = 0.0
             for i in range(ny):
                 s += df[p, i] * df[q, i]
-            a[p, q] = s
             a[q, p] = s
         s = 0.0
         for i in range(ny):
             s += df[p, i] * d[i]
-        b[p] = s
-    tr = 0.0
-    for p in range(mk):
+        gam[p] = s
         tr += a[p, p]
-    for p in range(mk):
+    for p in range(mk):  # Cholesky a = L Lᵀ (lower triangle), then forward/back substitution
         a[p, p] += 1e-10 * tr + 1e-300
-    gam = np.linalg.solve(a, b)
+        for q in range(p, mk):
+            s = a[q, p]
+            for k in range(p):
+                s -= a[q, k] * a[p, k]
+            a[q, p] = math.sqrt(s) if q == p else s / a[p, p]
+        s = gam[p]
+        for k in range(p):
+            s -= a[p, k] * gam[k]
+        gam[p] = s / a[p, p]
+    for p in range(mk - 1, -1, -1):
+        s = gam[p]
+        for k in range(p + 1, mk):
+            s -= a[k, p] * gam[k]
+        gam[p] = s / a[p, p]
     for i in range(ny):
         v = y[i] + d[i]
         for p in range(mk):
@@ -230,6 +236,7 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
     aa_m = 4
     aa_f, aa_g = np.zeros(ny), np.zeros(ny)
     aa_df, aa_dg = np.zeros((aa_m, ny)), np.zeros((aa_m, ny))
+    aa_a, aa_gam = np.zeros((aa_m, aa_m)), np.zeros(aa_m)
     n_iter = 0
     n_jac = 0
     kv = KL + KU
@@ -295,7 +302,7 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
                 jac_age = -1
                 continue
             prev = err
-            _anderson(y, d, aa_f, aa_g, aa_df, aa_dg, na, aa_m)
+            _anderson(y, d, aa_f, aa_g, aa_df, aa_dg, aa_a, aa_gam, na, aa_m)
             na += 1
         if not converged:
             y[:] = yn  # leave the state at the start of the failed step

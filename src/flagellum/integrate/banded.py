@@ -7,15 +7,23 @@ transpose of LAPACK's column-major ``(ldab, n)``)::
     ab[j, kl + ku + i − j] = A[i, j]   for max(0, j − ku) ≤ i ≤ min(n − 1, j + kl),
 
 with ``ldab = 2 kl + ku + 1``; the first kl slots hold the fill-in of the pivoted factors.
+
+:func:`band_factor` first tries elimination without row exchanges (U keeps bandwidth ku, so
+it costs kl·ku instead of kl·(kl + ku) per column, and the solve kl + ku instead of 2kl + ku),
+and falls back to partial pivoting when a pivot is small against its column.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
+from .._jit import FASTMATH
 
-@njit(cache=True)
+
+@njit(cache=True, fastmath=FASTMATH)
 def band_lu(ab, kl, ku, ipiv):
     """In-place LU factorization; returns 0, or j+1 if U[j, j] is exactly zero."""
     n = ab.shape[0]
@@ -59,26 +67,75 @@ def band_lu(ab, kl, ku, ipiv):
     return info
 
 
+@njit(cache=True, fastmath=FASTMATH)
+def band_lu_nopivot(ab, kl, ku, rel):
+    """In-place LU without row exchanges; returns 0, or j+1 if the pivot of column j is below
+    ``rel`` times the largest entry of its column (or not finite): then ``ab`` is spoilt."""
+    n = ab.shape[0]
+    kv = ku + kl
+    for j in range(n):
+        row = ab[j]
+        km = min(kl, n - 1 - j)
+        p = row[kv]
+        big = abs(p)
+        for i in range(1, km + 1):
+            big = max(big, abs(row[kv + i]))
+        if not abs(p) > rel * big or not math.isfinite(p):
+            return j + 1
+        inv = 1.0 / p
+        for i in range(1, km + 1):
+            row[kv + i] *= inv
+        for c in range(j + 1, min(j + ku, n - 1) + 1):
+            rc = ab[c]
+            o = kv + j - c
+            a = rc[o]
+            if a != 0.0:
+                for i in range(1, km + 1):
+                    rc[o + i] -= row[kv + i] * a
+    return 0
+
+
 @njit(cache=True)
-def band_solve(ab, kl, ku, ipiv, b):
-    """Solve A x = b in place with the factors of :func:`band_lu`."""
+def band_factor(ab, kl, ku, ipiv, backup, rel=1e-6):
+    """Factorize without pivoting if that is safe (see :func:`band_lu_nopivot`), else with
+    partial pivoting; ``backup`` is scratch of shape (n, kl + ku + 1). Returns (info, pivoted)."""
+    backup[:, :] = ab[:, kl:]  # the band (the fill-in slots are zero before factorization)
+    if band_lu_nopivot(ab, kl, ku, rel) == 0:
+        for i in range(ab.shape[0]):
+            ipiv[i] = i
+        return 0, False
+    ab[:, :kl] = 0.0
+    ab[:, kl:] = backup
+    return band_lu(ab, kl, ku, ipiv), True
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def band_solve(ab, kl, ku, ipiv, b, pivoted=True):
+    """Solve A x = b in place with the factors of :func:`band_lu` (``pivoted``) or of
+    :func:`band_lu_nopivot`."""
     n = ab.shape[0]
     kv = ku + kl
     for j in range(n - 1):
         lm = min(kl, n - 1 - j)
-        p = ipiv[j]
-        if p != j:
-            tmp = b[p]
-            b[p] = b[j]
-            b[j] = tmp
+        if pivoted:
+            p = ipiv[j]
+            if p != j:
+                tmp = b[p]
+                b[p] = b[j]
+                b[j] = tmp
         bj = b[j]
+        row = ab[j]
         for i in range(1, lm + 1):
-            b[j + i] -= ab[j, kv + i] * bj
+            b[j + i] -= row[kv + i] * bj
+    uw = kv if pivoted else ku
     for j in range(n - 1, -1, -1):
-        b[j] /= ab[j, kv]
+        row = ab[j]
+        b[j] /= row[kv]
         bj = b[j]
-        for i in range(max(0, j - kv), j):
-            b[i] -= ab[j, kv + i - j] * bj
+        lo = max(0, j - uw)
+        o = kv - j
+        for i in range(lo, j):
+            b[i] -= row[o + i] * bj
 
 
 def dense_to_band(a: np.ndarray, kl: int, ku: int) -> np.ndarray:

@@ -27,9 +27,11 @@ import math
 import numpy as np
 from numba import njit
 
+from .._jit import FASTMATH
+
 from ..errors import SimulationError
 from ..rod import kernels as K
-from .banded import band_lu, band_solve
+from .banded import band_factor, band_solve
 from .cvode import KL, KU
 
 RFD_DELTA = 1e-6
@@ -143,7 +145,7 @@ def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, y
     zm[:] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def _anderson(y, d, f_prev, g_prev, df, dg, a, gam, na, m):
     """One Anderson-accelerated chord update, in place: y ← g − ΔG γ with
     γ = argmin ‖F − ΔF γ‖₂ over the last ≤ m differences of the chord steps F = d and of
@@ -196,7 +198,7 @@ def _anderson(y, d, f_prev, g_prev, df, dg, a, gam, na, m):
 
 @njit(cache=True)
 def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT, torques, normals,
-                   ws, ab, ipiv, jac_age, jac_every, work, tol, max_iter, slow, hist):
+                   ws, ab, ipiv, backup, jac_age, jac_every, work, tol, max_iter, slow, hist, colors):
     """Advance y in place by ``n_steps`` drift-implicit steps of size ``dt``.
 
     θ-method (``theta`` in [1/2, 1])::
@@ -215,9 +217,11 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
     Its first step, and every step after a change of Δt, is an implicit Euler step.
     b_n = Δt M(y_n) ξ_n + Δt kT ∂·M(y_n) is the thermal increment.
 
-    ``torques[k]`` is the motor torque at the end of step k. ``normals`` (n_steps, m)
+    ``ab``, ``ipiv``: the factorized iteration matrix, kept between calls (``backup``: scratch
+    for :func:`~flagellum.integrate.banded.band_factor`). ``colors`` = (color, lo, hi) of the Jacobian's columns (see
+    :func:`~flagellum.rod.kernels.colored_jacobian`). ``torques[k]`` is the motor torque at the end of step k. ``normals`` (n_steps, m)
     holds the unit normals of each step (m = 0 for deterministic runs). ``hist`` =
-    [history valid, its Δt, β of the factorized Jacobian]; work[11], work[12] hold y_{n−1}
+    [history valid, its Δt, β of the factorized Jacobian, factors pivoted]; work[11], work[12] hold y_{n−1}
     and b_{n−1}. Returns (status, steps done, Newton iterations, Jacobians, jac_age); status
     0 = ok, 1 = Newton failed, 2 = non-finite state.
     """
@@ -273,20 +277,23 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
             fresh = jac_age < 0 or jac_age >= jac_every
             if fresh:
                 K.rhs(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
-                K.band_jacobian(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, KL, KU, ab,
-                                -beta * dt, yw, fw)
+                K.colored_jacobian(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, KL, KU, ab,
+                                   -beta * dt, yw, fw, colors[0], colors[1], colors[2])
                 for j in range(ny):
                     ab[j, kv] += 1.0
                 hist[2] = beta
-                if band_lu(ab, KL, KU, ipiv) != 0:
+                info, pivoted = band_factor(ab, KL, KU, ipiv, backup)
+                if info != 0:
                     return 1, k, n_iter, n_jac, -1
+                hist[3] = 1.0 if pivoted else 0.0
                 jac_age = 0
                 n_jac += 1
                 na = 0
-            K.rhs(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
+            if not fresh:  # (a fresh Jacobian has just evaluated f at y)
+                K.rhs(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
             for i in range(ny):
                 d[i] = -(y[i] - fn[i] - beta * dt * f[i])
-            band_solve(ab, KL, KU, ipiv, d)
+            band_solve(ab, KL, KU, ipiv, d, hist[3] != 0.0)
             err = 0.0
             for i in range(ny):
                 err = max(err, abs(d[i]))
@@ -348,8 +355,9 @@ class ImplicitStepper:
         ny = len(y0)
         self._ab = np.zeros((ny, 2 * KL + KU + 1))
         self._ipiv = np.zeros(ny, np.int64)
+        self._backup = np.zeros((ny, KL + KU + 1))
         self._work = np.zeros((13, ny))
-        self._hist = np.zeros(3)
+        self._hist = np.zeros(4)
         self._n_normals = (4 * (model.n + 1) + 3 + ny) if self.kT > 0 else 0
         self.n_steps = self.n_iter = self.n_jac = 0
         self.reset(t0, y0)
@@ -362,7 +370,7 @@ class ImplicitStepper:
         self.t = float(t0)
         self.y = np.array(y0, float)
         self._jac_age = -1
-        self._hist = np.zeros(3)  # new right-hand side: no BDF2 history
+        self._hist = np.zeros(4)  # new right-hand side: no BDF2 history
     def advance(self, t: float) -> np.ndarray:
         span = t - self.t
         if span <= 0:
@@ -387,8 +395,9 @@ class ImplicitStepper:
         torques = np.array([m.motor(s) for s in times])
         status, done, it, nj, self._jac_age = implicit_steps(
             self.y, t0, k, dt, self.theta, m.prm, m.iprm, m.ref_u, m.ref_e, m.ref_m, self.kT, torques,
-            np.ascontiguousarray(normals), m._ws, self._ab, self._ipiv, self._jac_age,
-            self.jac_every, self._work, self.tol, self.max_iter, self.slow, self._hist)
+            np.ascontiguousarray(normals), m._ws, self._ab, self._ipiv, self._backup, self._jac_age,
+            self.jac_every, self._work, self.tol, self.max_iter, self.slow, self._hist,
+            m.jacobian_colors(KL, KU))
         self.n_steps += done
         self.n_iter += it
         self.n_jac += nj

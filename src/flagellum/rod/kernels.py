@@ -35,16 +35,18 @@ import math
 import numpy as np
 from numba import njit
 
+from .._jit import FASTMATH, atan2
+
 HOOK_FREE, HOOK_ELASTIC, HOOK_CLAMPED = 0, 1, 2
 ANCHOR_FIXED, ANCHOR_SPHERE, ANCHOR_FREE = 0, 1, 2
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", fastmath=FASTMATH)
 def _cross(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
     """Fill tangents T, material vectors E1, E2, bond lengths LEN, spin connections S and
     reference vectors A1 = P(u→t) e (so that E1 = cos θ A1 + sin θ t × A1).
@@ -78,7 +80,7 @@ def frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
         S[i, 0], S[i, 1], S[i, 2] = -cx / (1.0 + d), -cy / (1.0 + d), -cz / (1.0 + d)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e, ref_m,
             T, E1, E2, LEN, S, GT, GTH, A1):
     """Elastic energy; fills GT (n+1, 3) = ∂E/∂t at fixed material spin, GTH = ∂E/∂θ."""
@@ -93,7 +95,7 @@ def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e, ref_m,
         cx, cy, cz = _cross(tax, tay, taz, tbx, tby, tbz)
         cosp = tax * tbx + tay * tby + taz * tbz
         sinp = math.sqrt(cx * cx + cy * cy + cz * cz)
-        phi = math.atan2(sinp, cosp)
+        phi = atan2(sinp, cosp)
         if phi < 1e-4:
             p2 = phi * phi
             f = 1.0 + p2 / 6.0 + 7.0 * p2 * p2 / 360.0
@@ -116,7 +118,7 @@ def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e, ref_m,
         cv = (cx * vx + cy * vy + cz * vz) / (1.0 + cosp)
         px, py, pz = cosp * vx + qx + cv * cx, cosp * vy + qy + cv * cy, cosp * vz + qz + cv * cz
         wx, wy, wz = _cross(px, py, pz, rx, ry, rz)
-        mr = math.atan2(wx * tbx + wy * tby + wz * tbz, px * rx + py * ry + pz * rz)
+        mr = atan2(wx * tbx + wy * tby + wz * tbz, px * rx + py * ry + pz * rz)
         mr += 2.0 * math.pi * math.floor((ref_m[b] - mr) / (2.0 * math.pi) + 0.5)
         psi = thb - tha + mr
         d2 = k2 - kappa0
@@ -145,7 +147,7 @@ def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e, ref_m,
     return energy
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def rechart_all(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
     """Move every chart pole to its current tangent, keeping the reference vector a1 (and so
     θ and the reference twists) unchanged: discrete time-parallel transport."""
@@ -156,7 +158,7 @@ def rechart_all(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
             ref_e[i, k] = A1[i, k]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def reference_twists(n, T, A1, out):
     """Raw reference twist m_b ∈ (−π, π] of every joint (a, b) (see :func:`elastic`)."""
     for b in range(1, n + 1):
@@ -169,10 +171,10 @@ def reference_twists(n, T, A1, out):
         cv = (cx * vx + cy * vy + cz * vz) / (1.0 + cosp)
         px, py, pz = cosp * vx + qx + cv * cx, cosp * vy + qy + cv * cy, cosp * vz + qz + cv * cz
         wx, wy, wz = _cross(px, py, pz, rx, ry, rz)
-        out[b] = math.atan2(wx * T[b, 0] + wy * T[b, 1] + wz * T[b, 2], px * rx + py * ry + pz * rz)
+        out[b] = atan2(wx * T[b, 0] + wy * T[b, 1] + wz * T[b, 2], px * rx + py * ry + pz * rz)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def bead_gradient(n, h, K, T, LEN, GT, DR):
     """DR (n+1, 3) = ∂E/∂r_i from GT (bond part) and stretching."""
     DR[:, :] = 0.0
@@ -199,7 +201,7 @@ P_H, P_A, P_C, P_K, P_KAPPA, P_TAU, P_HOOKK, P_SPHERE, P_GPAR, P_GPERP, P_GROT, 
 I_N, I_HOOK, I_ANCHOR, I_GEN = range(4)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def workspace(n):
     """(T, E1, E2, LEN, S, GT, GTH, DR, V, A1): see :func:`frames`, :func:`elastic`, :func:`rhs`."""
     n1 = n + 1
@@ -208,7 +210,7 @@ def workspace(n):
             np.zeros((n1, 3)), np.zeros((n1, 3)))
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=FASTMATH)
 def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
     """Overdamped RFT dynamics (paper eqs. 5–6 and the hook balance of §2.3).
 
@@ -323,24 +325,60 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
     return energy, f0x, f0y, f0z, wz + omega_frame
 
 
-@njit(cache=True)
-def band_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl, ku,
-                  ab, scale, y_work, f_work):
-    """Finite-difference Jacobian of :func:`rhs` into LU-ready band storage ``ab``.
+@njit(cache=True, fastmath=FASTMATH)
+def colored_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl, ku,
+                     ab, scale, y_work, f_work, color, lo, hi):
+    """Finite-difference Jacobian of :func:`rhs` into LU-ready band storage ``ab``
+    (``ab[j, kl+ku+i−j] = scale · ∂f_i/∂y_j``), one right-hand side per colour.
 
-    Columns j, j + w, j + 2w, … (w = kl + ku + 1) are perturbed together, so the cost is
-    w right-hand sides whatever the size. ``ab[j, kl+ku+i−j] = scale · ∂f_i/∂y_j``.
+    Column j can change only rows lo[j] … hi[j] (within the band); columns of equal
+    ``color`` have disjoint row ranges and are perturbed together (Curtis, Powell & Reid).
     """
     n = y.shape[0]
-    w = kl + ku + 1
     kv = kl + ku
     ab[:, :] = 0.0
-    for g in range(min(w, n)):
+    for g in range(color.max() + 1):
         y_work[:] = y
-        for j in range(g, n, w):
-            y_work[j] += 1e-7 * max(1.0, abs(y[j]))
+        for j in range(n):
+            if color[j] == g:
+                y_work[j] += 1e-7 * max(1.0, abs(y[j]))
         rhs(y_work, f_work, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws)
-        for j in range(g, n, w):
-            inv = scale / (y_work[j] - y[j])
-            for i in range(max(0, j - ku), min(n, j + kl + 1)):
-                ab[j, kv + i - j] = (f_work[i] - f0[i]) * inv
+        for j in range(n):
+            if color[j] == g:
+                inv = scale / (y_work[j] - y[j])
+                for i in range(lo[j], hi[j] + 1):
+                    ab[j, kv + i - j] = (f_work[i] - f0[i]) * inv
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def band_colors(n, kl, ku):
+    """Colouring of a full band: columns j, j + w, j + 2w, … together (w = kl + ku + 1)."""
+    color = np.arange(n) % (kl + ku + 1)
+    lo = np.maximum(np.arange(n) - ku, 0)
+    hi = np.minimum(np.arange(n) + kl, n - 1)
+    return color, lo, hi
+
+
+def interval_colors(lo, hi):
+    """Fewest colours for columns with row ranges [lo, hi] such that columns of one colour
+    have disjoint ranges (greedy by left end: optimal for intervals)."""
+    order = np.argsort(lo, kind="stable")
+    color = np.full(len(lo), -1, np.int64)
+    ends: list[int] = []  # last row used by each colour
+    for j in order:
+        free = [c for c, e in enumerate(ends) if e < lo[j]]
+        c = min(free, key=lambda c: ends[c]) if free else len(ends)
+        if c == len(ends):
+            ends.append(0)
+        ends[c] = hi[j]
+        color[j] = c
+    return color
+
+
+@njit(cache=True, fastmath=FASTMATH)
+def band_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl, ku,
+                  ab, scale, y_work, f_work):
+    """:func:`colored_jacobian` with the full band's colouring (kl + ku + 1 right-hand sides)."""
+    color, lo, hi = band_colors(y.shape[0], kl, ku)
+    colored_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl, ku,
+                     ab, scale, y_work, f_work, color, lo, hi)

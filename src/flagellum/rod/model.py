@@ -152,6 +152,39 @@ class RodModel:
         K.bead_gradient(n, h, Kst, ws[0], ws[3], ws[5], dr)
         return e, dr, ws[6].copy(), ws[5].copy()
 
+    def jacobian_colors(self, kl: int, ku: int):
+        """(color, lo, hi) for :func:`~flagellum.rod.kernels.colored_jacobian`: the rows each
+        column of the Jacobian can reach, found once from finite differences at two generic
+        states (perturbed shape, charts off-centre, motor and frame rotation on; a structural
+        zero gives an exactly zero difference), coloured with as few colours as possible."""
+        key = (kl, ku)
+        if getattr(self, "_colors", (None,))[0] != key:
+            ny = state_size(self.n)
+            rng = np.random.default_rng(12345)
+            prm = self.prm.copy()
+            prm[K.P_TORQUE], prm[K.P_OMEGA] = 1.0, 300.0
+            charts = (self.ref_u.copy(), self.ref_e.copy(), self.ref_m.copy())
+            nz = np.zeros((ny, 2 * kl + ku + 1), bool)
+            ab = np.zeros_like(nz, dtype=float)
+            for _ in range(2):
+                y = self.initial_state()
+                y[3:] += rng.normal(0.0, 0.02, ny - 3)
+                y[:3] += rng.normal(0.0, 0.1, 3)
+                f0 = np.zeros(ny)
+                K.rhs(y, f0, prm, self.iprm, self.ref_u, self.ref_e, self.ref_m, self._zf,
+                      self._zm, self._zh, self._ws)
+                K.band_jacobian(y, f0, prm, self.iprm, self.ref_u, self.ref_e, self.ref_m, self._zf,
+                                self._zm, self._zh, self._ws, kl, ku, ab, 1.0, np.zeros(ny), np.zeros(ny))
+                nz |= ab != 0.0
+            self.set_charts(*charts)
+            rows = np.arange(ny)[:, None] + np.arange(-kl - ku, kl + 1)[None, :]
+            rows = np.where(nz, rows, -1)
+            hi = rows.max(axis=1)
+            lo = np.where(nz, rows, ny).min(axis=1)
+            lo, hi = np.minimum(lo, np.arange(ny)), np.maximum(hi, np.arange(ny))
+            self._colors = (key, (K.interval_colors(lo, hi), lo.astype(np.int64), hi.astype(np.int64)))
+        return self._colors[1]
+
     def set_omega_frame(self, omega: float) -> None:
         self.omega_frame = float(omega)
         self.prm[K.P_OMEGA] = self.omega_frame

@@ -73,3 +73,33 @@ def test_free_axial_diffusion_with_a_load_sphere(scheme):
     dz = z[lag:] - z[:-lag]
     msd = np.mean(dz[::lag] ** 2)  # independent increments
     assert msd / (2 * KT / gamma * lag * dt) == pytest.approx(1.0, abs=0.12)
+
+
+def test_default_thermal_newton_tolerance_is_far_below_the_noise():
+    """With noise the Newton tolerance is 2e-3 of a bead's thermal step √(2kTΔt/(γ⊥h))
+    (≈ 5e-5 µm at Δt = 5e-5 s). Same noise, 400 steps from rest in the lab frame: the path
+    stays within 5 % of one thermal step of a fully converged one (tolerance 1e-9) — errors
+    along the stiff modes are damped; along the free rotation they add up like a random walk
+    of steps ≈ 2e-3 of the thermal ones — and a 100× looser tolerance deviates more."""
+    from flagellum.integrate.brownian import ImplicitStepper
+    from flagellum.rod.model import RodModel
+
+    p = Params()
+    step = np.sqrt(2 * p.fluid.kT * 5e-5 / (p.gammas[1] * p.filament.segment_length))
+    loose_tol = 100 * 2e-3 * step
+    finals = {}
+    for tol in (None, 1e-9, loose_tol):
+        m = RodModel(p, Motor(1.0), omega_frame=0.0)
+        st = ImplicitStepper(m, 0.0, m.initial_state(), 5e-5, kT=p.fluid.kT, seed=11, tol=tol,
+                             max_iter=200)  # no split steps: the same noise in every run
+        if tol is None:
+            assert st.tol == pytest.approx(2e-3 * step)
+        for k in range(1, 5):
+            st.advance(k * 0.005)
+            m.rechart(st.y)
+            st.reset(st.t, st.y)
+        assert st.n_steps == 400
+        finals[tol] = st.y[3:].reshape(-1, 4)[:, :3].copy()
+    dev = np.abs(finals[None] - finals[1e-9]).max()
+    assert dev < 0.05 * step
+    assert np.abs(finals[loose_tol] - finals[1e-9]).max() > 3 * dev

@@ -270,3 +270,11 @@ def test_motor_angle_follows_the_motor_speed_when_buckled():
     th = Simulator(Params(), Motor(3.0), thermal=True, seed=2).run(0.05, save_every=0.05 / 300)
     rigid = 3.0 * 700.0  # ≈ ω/M of the pinned rigid helix × M
     assert 0.3 * rigid < th.summary(t_from=0.025).omega_mean < 2 * rigid
+
+
+def test_fixed_step_runs_take_whole_steps():
+    """The chart-check chunks of an implicit run are whole multiples of Δt, so every step
+    has the requested size (a shortened step would also restart BDF2 with an Euler step)."""
+    sim = Simulator(SHORT, Motor(1.0), solver=SolverOptions(method="implicit", dt=5e-5))
+    sim.run(0.02, save_every=2e-3)
+    assert sim.steps == 400

@@ -222,6 +222,9 @@ class Simulator:
         if self._last_motor is not None:  # measured motor speed, capped: transients spike it
             rate = max(rate, min(abs(self._last_motor[3]), 3.0 * self._omega_scale))
         chunk = 0.5 / rate
+        step = getattr(stepper, "dt", None)
+        if step:  # whole fixed steps: a shortened step would restart BDF2 with an Euler step
+            chunk = step * max(1, math.floor(chunk / step))
         y = stepper.y
         while stepper.t < t_target:
             t_next = min(t_target, stepper.t + chunk)

@@ -15,8 +15,9 @@ bias by a random finite difference (Delong et al., J. Chem. Phys. 140, 134110 (2
 so the scheme samples the Boltzmann distribution to first order in Δt. The implicit
 equation is solved by a chord (simplified Newton) iteration with a banded Jacobian that is
 reused over steps, accelerated by Anderson mixing (:func:`_anderson`); the Jacobian is
-refreshed only when the iteration stalls (the thermal kicks of a step are large at the bond
-scale, so a stale Jacobian converges slowly, which the mixing tolerates).
+refreshed only when the iteration diverges (the thermal kicks of a step are large at the bond
+scale, so a stale Jacobian converges slowly, which the mixing tolerates). With noise the
+tolerance is a small fraction of the thermal step (:data:`THERMAL_TOL_FRACTION`).
 Random numbers come from numpy's PCG64 in chunks, so a stopped run resumes the same stream.
 """
 

@@ -59,3 +59,14 @@ def test_bad_input_subprocess_has_no_traceback():
     r = _cli("rft", "--length", "-1")
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
+
+
+def test_c_level_stdout_does_not_spoil_json():
+    """Libraries that write to file descriptor 1 (SUNDIALS' warnings) end up on stderr; the
+    results printed by the CLI stay alone on stdout."""
+    code = ("import os, sys; from flagellum import cli; cli.keep_stdout_for_results(); "
+            "os.write(1, b'[WARNING] from C\\n'); cli.emit_json({'a': 1}); sys.stdout.flush(); "
+            "os.write(1, b'[WARNING] again\\n')")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert json.loads(res.stdout) == {"a": 1}
+    assert res.stderr.count("[WARNING]") == 2

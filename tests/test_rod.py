@@ -217,3 +217,15 @@ def test_fast_atan2_is_accurate_to_two_ulp():
     out = np.empty(1)
     vec(np.array([np.nan]), np.array([1.0]), out)
     assert np.isnan(out[0])
+
+
+def test_degenerate_state_gives_non_finite_values_not_an_exception():
+    """Two consecutive bonds exactly reversed (a wild trial state of a stiff solver): the
+    kernels return inf/NaN, which the integrators treat as a failed step; a Python
+    ZeroDivisionError (Numba's default error model) used to end the whole run."""
+    m = RodModel(Params(Filament(segment_length=0.5)), Motor(1.0))
+    y = m.initial_state()
+    p = y[3:].reshape(-1, 4)
+    p[2, :3] = p[0, :3]  # bead 2 on bead 0: bond 2 = −bond 1
+    out = m.rhs(0.0, y)
+    assert not np.all(np.isfinite(out))

@@ -21,7 +21,7 @@ _MOREBITS = 6.123233995736765886130e-17  # π/2 − fl(π/2)
 _T3P8 = 2.41421356237309504880  # tan(3π/8)
 
 
-@njit(cache=True, inline="always", fastmath=FASTMATH)
+@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
 def _atan_nonneg(x):
     if x > _T3P8:
         y, x, extra = 0.5 * math.pi, -1.0 / x, _MOREBITS
@@ -35,7 +35,7 @@ def _atan_nonneg(x):
     return y + (x * z * p / q + x + extra)
 
 
-@njit(cache=True, inline="always", fastmath=FASTMATH)
+@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
 def atan2(y, x):
     """math.atan2 to 2 ulp in ≈ 10 ns instead of ≈ 28 (the libm call dominated the bending
     and twist kernel). The sign of a zero result is not kept."""

@@ -321,7 +321,26 @@ def run(argv=None) -> int:
     return 0
 
 
+def keep_stdout_for_results() -> None:
+    """Route file descriptor 1 to stderr and give Python's stdout a private copy of the real
+    stdout: C libraries write there (SUNDIALS prints its warnings, e.g. "t + h = t", to fd 1
+    and is not told otherwise through scikit-sundae), which made ``--json`` output
+    unparseable. Child processes inherit the routing."""
+    import os
+
+    try:
+        if sys.stdout.fileno() != 1:
+            return
+    except (AttributeError, OSError, ValueError):  # replaced stdout (tests, notebooks)
+        return
+    sys.stdout.flush()
+    real = os.dup(1)
+    os.dup2(2, 1)
+    sys.stdout = open(real, "w", encoding=sys.stdout.encoding, errors=sys.stdout.errors)
+
+
 def entry():  # console script
+    keep_stdout_for_results()
     sys.exit(run())
 
 

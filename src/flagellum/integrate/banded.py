@@ -23,7 +23,7 @@ from numba import njit
 from .._jit import FASTMATH
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def band_lu(ab, kl, ku, ipiv):
     """In-place LU factorization; returns 0, or j+1 if U[j, j] is exactly zero."""
     n = ab.shape[0]
@@ -67,7 +67,7 @@ def band_lu(ab, kl, ku, ipiv):
     return info
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def band_lu_nopivot(ab, kl, ku, rel):
     """In-place LU without row exchanges; returns 0, or j+1 if the pivot of column j is below
     ``rel`` times the largest entry of its column (or not finite): then ``ab`` is spoilt."""
@@ -109,7 +109,7 @@ def band_factor(ab, kl, ku, ipiv, backup, rel=1e-6):
     return band_lu(ab, kl, ku, ipiv), True
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def band_solve(ab, kl, ku, ipiv, b, pivoted=True):
     """Solve A x = b in place with the factors of :func:`band_lu` (``pivoted``) or of
     :func:`band_lu_nopivot`."""

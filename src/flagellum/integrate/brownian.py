@@ -150,7 +150,7 @@ def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, y
     zm[:] = 0.0
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def _anderson(y, d, f_prev, g_prev, df, dg, a, gam, na, m):
     """One Anderson-accelerated chord update, in place: y ← g − ΔG γ with
     γ = argmin ‖F − ΔF γ‖₂ over the last ≤ m differences of the chord steps F = d and of

@@ -313,18 +313,22 @@ def simulate_point(spec: dict) -> dict:
     n_save = int(spec.get("samples", 600))
     wall0 = time.perf_counter()
     err = None
-    for frame in frames:
-        solver = SolverOptions(method="implicit" if thermal else "cvode", frame=frame,
-                               dt=float(spec.get("dt", 5e-5)))
+    attempts = [("implicit" if thermal else "cvode", frame) for frame in frames]
+    if not thermal:  # last resort: fixed steps do not stall where CVODE's step size collapses
+        attempts.append(("implicit", frames[-1]))
+    errors = []
+    for method, frame in attempts:
+        solver = SolverOptions(method=method, frame=frame, dt=float(spec.get("dt", 5e-5)))
         sim = Simulator(params, motor, thermal=thermal, seed=int(spec.get("seed", 0)), solver=solver)
         try:
             tr = sim.run(t_end, save_every=t_end / n_save, progress=False)
             err = None
             break
         except SimulationError as exc:
-            err = f"{frame} frame: {exc}"
+            err = f"{method}, {frame} frame: {exc}"
         except (ArithmeticError, ValueError, RuntimeError) as exc:  # e.g. raised inside the rhs
-            err = f"{frame} frame: {type(exc).__name__}: {exc}"
+            err = f"{method}, {frame} frame: {type(exc).__name__}: {exc}"
+        errors.append(err)
     out = {"torque": M, "t_end": t_end, "protocol": protocol, "thermal": thermal,
            "wall_seconds": time.perf_counter() - wall0}
     if spec.get("log"):
@@ -335,6 +339,9 @@ def simulate_point(spec: dict) -> dict:
     if err is not None:
         return {**out, "error": err}
     out["frame"] = frame
+    out["solver"] = method
+    if errors:
+        out["retried_after"] = "; ".join(errors)
     t_from = t_end - float(spec.get("window", 0.5)) * (t_end - t_start)
     s = tr.summary(t_from)
     sel = tr.t >= t_from - 1e-12

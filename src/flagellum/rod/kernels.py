@@ -41,12 +41,12 @@ HOOK_FREE, HOOK_ELASTIC, HOOK_CLAMPED = 0, 1, 2
 ANCHOR_FIXED, ANCHOR_SPHERE, ANCHOR_FREE = 0, 1, 2
 
 
-@njit(cache=True, inline="always", fastmath=FASTMATH)
+@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
 def _cross(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
     """Fill tangents T, material vectors E1, E2, bond lengths LEN, spin connections S and
     reference vectors A1 = P(u→t) e (so that E1 = cos θ A1 + sin θ t × A1).
@@ -80,7 +80,7 @@ def frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
         S[i, 0], S[i, 1], S[i, 2] = -cx / (1.0 + d), -cy / (1.0 + d), -cz / (1.0 + d)
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e, ref_m,
             T, E1, E2, LEN, S, GT, GTH, A1):
     """Elastic energy; fills GT (n+1, 3) = ∂E/∂t at fixed material spin, GTH = ∂E/∂θ."""
@@ -147,7 +147,7 @@ def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e, ref_m,
     return energy
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def rechart_all(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
     """Move every chart pole to its current tangent, keeping the reference vector a1 (and so
     θ and the reference twists) unchanged: discrete time-parallel transport."""
@@ -158,7 +158,7 @@ def rechart_all(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
             ref_e[i, k] = A1[i, k]
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def reference_twists(n, T, A1, out):
     """Raw reference twist m_b ∈ (−π, π] of every joint (a, b) (see :func:`elastic`)."""
     for b in range(1, n + 1):
@@ -174,7 +174,7 @@ def reference_twists(n, T, A1, out):
         out[b] = atan2(wx * T[b, 0] + wy * T[b, 1] + wz * T[b, 2], px * rx + py * ry + pz * rz)
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def bead_gradient(n, h, K, T, LEN, GT, DR):
     """DR (n+1, 3) = ∂E/∂r_i from GT (bond part) and stretching."""
     DR[:, :] = 0.0
@@ -201,7 +201,7 @@ P_H, P_A, P_C, P_K, P_KAPPA, P_TAU, P_HOOKK, P_SPHERE, P_GPAR, P_GPERP, P_GROT, 
 I_N, I_HOOK, I_ANCHOR, I_GEN = range(4)
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def workspace(n):
     """(T, E1, E2, LEN, S, GT, GTH, DR, V, A1): see :func:`frames`, :func:`elastic`, :func:`rhs`."""
     n1 = n + 1
@@ -210,7 +210,7 @@ def workspace(n):
             np.zeros((n1, 3)), np.zeros((n1, 3)))
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
     """Overdamped RFT dynamics (paper eqs. 5–6 and the hook balance of §2.3).
 
@@ -325,7 +325,7 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
     return energy, f0x, f0y, f0z, wz + omega_frame
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def colored_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl, ku,
                      ab, scale, y_work, f_work, color, lo, hi):
     """Finite-difference Jacobian of :func:`rhs` into LU-ready band storage ``ab``
@@ -350,7 +350,7 @@ def colored_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_ho
                     ab[j, kv + i - j] = (f_work[i] - f0[i]) * inv
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def band_colors(n, kl, ku):
     """Colouring of a full band: columns j, j + w, j + 2w, … together (w = kl + ku + 1)."""
     color = np.arange(n) % (kl + ku + 1)
@@ -375,7 +375,7 @@ def interval_colors(lo, hi):
     return color
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def band_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl, ku,
                   ab, scale, y_work, f_work):
     """:func:`colored_jacobian` with the full band's colouring (kl + ku + 1 right-hand sides)."""

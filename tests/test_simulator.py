@@ -278,3 +278,22 @@ def test_fixed_step_runs_take_whole_steps():
     sim = Simulator(SHORT, Motor(1.0), solver=SolverOptions(method="implicit", dt=5e-5))
     sim.run(0.02, save_every=2e-3)
     assert sim.steps == 400
+
+
+def test_cvode_failure_prints_nothing_on_stdout(capsys):
+    """scikit-sundae prints CVODE's error messages with print(); they go to stderr, so that
+    ``--json`` results on stdout stay parseable, and the failure becomes a SimulationError."""
+    from flagellum.errors import SimulationError
+    from flagellum.integrate.cvode import KL, KU, CvodeStepper
+    from flagellum.rod.model import RodModel
+
+    m = RodModel(SHORT, Motor(1.0))
+    st = CvodeStepper(m, 0.0, m.initial_state(), 1e-6, 1e-8)
+    st._solver = st._CVODE(st._rhs, jacfn=st._jac, linsolver="band", lband=KL, uband=KU,
+                           rtol=1e-6, atol=1e-8, max_num_steps=3)
+    st._solver.init_step(0.0, st.y)
+    with pytest.raises(SimulationError):
+        st.advance(0.01)
+    out = capsys.readouterr()
+    assert out.out == ""
+    assert "CVode" in out.err

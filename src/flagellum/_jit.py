@@ -3,6 +3,9 @@
 ``FASTMATH`` lets LLVM contract multiply–adds, reassociate sums (vectorized reductions) and
 use reciprocals (−20 % on the right-hand side), but keeps IEEE NaN/Inf semantics
 (no ``nnan``/``ninf``), so the blow-up checks (``isfinite``) are never optimized away.
+The kernels also use ``error_model="numpy"``: a division by zero at a degenerate trial state
+gives inf/NaN, which the integrators reject as a failed step, instead of raising
+``ZeroDivisionError`` out of the solver.
 """
 
 import math

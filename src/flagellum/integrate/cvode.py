@@ -9,6 +9,9 @@ See ``docs/numerics.md`` for the comparison with scipy's BDF/Radau/LSODA that ch
 
 from __future__ import annotations
 
+import contextlib
+import sys
+
 import numpy as np
 from numba import njit
 
@@ -80,7 +83,8 @@ class CvodeStepper:
         self._solver.init_step(self.t, self.y)
 
     def advance(self, t: float) -> np.ndarray:
-        res = self._solver.step(t)
+        with contextlib.redirect_stdout(sys.stderr):  # scikit-sundae prints CVODE's errors
+            res = self._solver.step(t)
         if not res.success or not np.all(np.isfinite(res.y)):
             raise SimulationError(f"CVODE failed at t = {res.t:.6g} s: {res.message}")
         self.t, self.y = float(res.t), np.array(res.y, float)

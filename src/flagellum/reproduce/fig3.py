@@ -195,14 +195,14 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
     ana = analyse(points, quality)
     files = plot(points, ana, rft, crit, quality, out_dir)
 
-    cols = ("torque", "t_end", "protocol", "frame", "regime", "thrust_mean", "thrust_min",
+    cols = ("torque", "t_end", "protocol", "frame", "solver", "regime", "thrust_mean", "thrust_min",
             "thrust_max", "thrust_std", "omega", "chi", "r_mean", "r_std", "r_over_L0",
             "sigma_over_sigma0", "hook_tilt_max_deg", "wall_seconds", "error")
+    text = ("protocol", "frame", "solver", "regime", "error")
     table = {c: [p.get(c, "") for p in points] for c in cols}
     files.append(write_csv(out_dir / "sweep.csv", table))
-    groups = {"sweep": {c: np.array([p.get(c, np.nan) if c not in ("protocol", "frame", "regime", "error")
-                                     else str(p.get(c, "")) for p in points],
-                                    dtype=None if c not in ("protocol", "frame", "regime", "error") else object)
+    groups = {"sweep": {c: np.array([p.get(c, np.nan) if c not in text else str(p.get(c, ""))
+                                     for p in points], dtype=None if c not in text else object)
                         for c in cols}}
     for lab, M in PANEL_TORQUES[quality].items():
         p = next((q for q in points if q["torque"] == M and "series" in q), None)

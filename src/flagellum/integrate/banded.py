@@ -110,14 +110,16 @@ def band_factor(ab, kl, ku, ipiv, backup, rel=1e-6):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def band_solve(ab, kl, ku, ipiv, b, pivoted=True):
+def band_solve(ab, kl, ku, ipiv, b, pivoted=True, work=None):
     """Solve A x = b in place with the factors of :func:`band_lu` (``pivoted``) or of
-    :func:`band_lu_nopivot`."""
+    :func:`band_lu_nopivot`; ``work``: optional scratch of length ≥ n + kl + ku."""
     n = ab.shape[0]
     kv = ku + kl
     if not pivoted:  # on a zero-padded copy: loops of fixed length kl and ku (−30 %)
-        x = np.zeros(n + kl + ku)
+        x = np.empty(n + kl + ku) if work is None else work
+        x[:ku] = 0.0
         x[ku:ku + n] = b
+        x[ku + n:n + kl + ku] = 0.0
         for j in range(n):
             xj = x[ku + j]
             row = ab[j]

@@ -64,6 +64,7 @@ class RodModel:
         self._zm = np.zeros(n1)
         self._zh = np.zeros(3)
         self.last_force = np.zeros(3)  #: elastic force on bead 0 at the last rhs call
+        self._colors = None  # (key, (color, lo, hi)) of jacobian_colors
         gp, gn, gr = self.gammas
         self.prm = np.array([self.h, f.bend_rigidity, f.twist_rigidity, f.stretch_modulus,
                              f.kappa0, f.torsion, self.boundary.hook_stiffness,
@@ -158,7 +159,7 @@ class RodModel:
         states (perturbed shape, charts off-centre, motor and frame rotation on; a structural
         zero gives an exactly zero difference), coloured with as few colours as possible."""
         key = (kl, ku)
-        if getattr(self, "_colors", (None,))[0] != key:
+        if self._colors is None or self._colors[0] != key:
             ny = state_size(self.n)
             rng = np.random.default_rng(12345)
             prm = self.prm.copy()

@@ -202,7 +202,8 @@ def _anderson(y, d, f_prev, g_prev, df, dg, a, gam, na, m):
 
 @njit(cache=True)
 def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT, torques, normals,
-                   ws, ab, ipiv, backup, jac_age, jac_every, work, tol, max_iter, slow, hist, colors):
+                   ws, ab, ipiv, backup, jac_age, jac_every, work, xwork, tol, max_iter, slow, hist,
+                   colors):
     """Advance y in place by ``n_steps`` drift-implicit steps of size ``dt``.
 
     θ-method (``theta`` in [1/2, 1])::
@@ -227,16 +228,16 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
     ``torques[k]`` is the motor torque at the end of step k. ``normals`` (n_steps, m) holds
     the unit normals of each step (m = 0 for deterministic runs). ``hist`` = [history valid,
     its Δt, β of the factorized Jacobian, factors pivoted]; work[11], work[12] hold y_{n−1}
-    and b_{n−1}; work[13] (length ny + KL + KU) is scratch of the solve. Returns (status,
+    and b_{n−1}; ``xwork`` (length ny + KL + KU) is scratch of the solve. Returns (status,
     steps done, Newton iterations, Jacobians, jac_age); status
     0 = ok, 1 = Newton failed, 2 = non-finite state.
     """
     n = iprm[K.I_N]
     ny = y.shape[0]
     n1 = n + 1
-    w = work[:, :ny]
-    yn, b, f, d, yw, fw, yp, ym, f1, f2, fn, y1, b1 = (w[0], w[1], w[2], w[3], w[4], w[5], w[6],
-                                                         w[7], w[8], w[9], w[10], w[11], w[12])
+    yn, b, f, d, yw, fw, yp, ym, f1, f2, fn, y1, b1 = (work[0], work[1], work[2], work[3], work[4],
+                                                         work[5], work[6], work[7], work[8], work[9],
+                                                         work[10], work[11], work[12])
     zf = np.zeros((n1, 3))
     zm = np.zeros(n1)
     zh = np.zeros(3)
@@ -299,7 +300,7 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
                 K.rhs(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
             for i in range(ny):
                 d[i] = -(y[i] - fn[i] - beta * dt * f[i])
-            band_solve(ab, KL, KU, ipiv, d, hist[3] != 0.0, work[13])
+            band_solve(ab, KL, KU, ipiv, d, hist[3] != 0.0, xwork)
             err = 0.0
             for i in range(ny):
                 err = max(err, abs(d[i]))
@@ -372,7 +373,8 @@ class ImplicitStepper:
         self._ab = np.zeros((ny, 2 * KL + KU + 1))
         self._ipiv = np.zeros(ny, np.int64)
         self._backup = np.zeros((ny, KL + KU + 1))
-        self._work = np.zeros((14, ny + KL + KU))
+        self._work = np.zeros((13, ny))
+        self._xwork = np.zeros(ny + KL + KU)
         self._hist = np.zeros(4)
         self._n_normals = (4 * (model.n + 1) + 3 + ny) if self.kT > 0 else 0
         self.n_steps = self.n_iter = self.n_jac = 0
@@ -412,7 +414,7 @@ class ImplicitStepper:
         status, done, it, nj, self._jac_age = implicit_steps(
             self.y, t0, k, dt, self.theta, m.prm, m.iprm, m.ref_u, m.ref_e, m.ref_m, self.kT, torques,
             np.ascontiguousarray(normals), m._ws, self._ab, self._ipiv, self._backup, self._jac_age,
-            self.jac_every, self._work, self.tol, self.max_iter, self.slow, self._hist,
+            self.jac_every, self._work, self._xwork, self.tol, self.max_iter, self.slow, self._hist,
             m.jacobian_colors(KL, KU))
         self.n_steps += done
         self.n_iter += it

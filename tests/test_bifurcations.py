@@ -228,10 +228,12 @@ def test_cli_bad_input_one_line_exit_2(capsys, args, word):
 # -- slow tier: the real filament ------------------------------------------------------------
 @pytest.mark.slow
 def test_coarse_sweep_finds_aligned_buckled_oscillating_in_order(monkeypatch):
-    """M = 0.5, 2.5, 4.5 pN·µm, 0.4 s each after the step (≈ 1 min on 2 cores): regimes
-    (ii), (iii), (iv) of Fig. 3 in this order, so M_c2 lies in (2.5, 4.5)."""
+    """M = 0.5, 3, 5.5 pN·µm, 0.4 s each after the step (≈ 1 min on 2 cores): regimes
+    (ii), (iii), (iv) of Fig. 3 in this order, so M_c2 lies in (3, 5.5). (Until session 3
+    the top probe was 4.5, inside the bistable window 4.4–4.6 of docs/sweeps.md: it may
+    stay buckled.)"""
     monkeypatch.undo()  # the real M_c1 as well
-    res = bifurcations(torque_range="0.5:4.5:2", t_end=0.4, tol=2.0, workers=2)
+    res = bifurcations(torque_range="0.5:5.5:2.5", t_end=0.4, tol=3.0, workers=2)
     scan = sorted((p for p in res["probes"] if p["direction"] == "scan"), key=lambda p: p["torque"])
     assert [p["regime"] for p in scan] == ["aligned", "buckled", "oscillating"], scan
-    assert res["M_c2_bracket"] == [2.5, 4.5] and abs(res["M_c1"] - 1.1) < 0.2
+    assert res["M_c2_bracket"] == [3.0, 5.5] and abs(res["M_c1"] - 1.1) < 0.2

@@ -107,10 +107,13 @@ class RunConfig:
         t_total = t_start + self.t_end
         # the co-rotating frame fails with CVODE at large torques (and after a step)
         frames = ("lab", "auto") if (state is not None or M >= self.step_from) else ("auto", "lab")
+        # last resort: fixed steps do not stall where CVODE's step size collapses (t + h = t)
+        attempts = [("cvode", f) for f in frames] + [("implicit", "lab")]
         wall0, err = time.perf_counter(), None
-        for frame in frames:
+        for method, frame in attempts:
             sim = Simulator(self.params, motor, self.boundary,
-                            solver=SolverOptions(rtol=self.rtol, atol=self.rtol * 1e-2, frame=frame))
+                            solver=SolverOptions(method=method, rtol=self.rtol,
+                                                 atol=self.rtol * 1e-2, frame=frame))
             if state is not None:
                 start_from(sim, state)
             try:
@@ -118,11 +121,11 @@ class RunConfig:
                 err = None
                 break
             except SimulationError as exc:
-                err = f"{frame} frame: {exc}"
+                err = f"{method}, {frame} frame: {exc}"
             except ParameterError:
                 raise
             except (ArithmeticError, RuntimeError, ValueError) as exc:  # e.g. raised in the rhs
-                err = f"{frame} frame: {type(exc).__name__}: {exc}"
+                err = f"{method}, {frame} frame: {type(exc).__name__}: {exc}"
         probe = {"torque": M, "t_end": self.t_end, "continued": state is not None,
                  "wall_seconds": time.perf_counter() - wall0}
         if err is not None:
@@ -133,7 +136,7 @@ class RunConfig:
         probe.update({"regime": decide(m), "sigma_over_sigma0": m.sigma_over_sigma0,
                       "thrust": m.thrust_mean, "thrust_min": float(tr.thrust[sel].min()),
                       "thrust_max": float(tr.thrust[sel].max()), "swings": m.swings,
-                      "centroid_offset": m.centroid_offset, "frame": frame})
+                      "centroid_offset": m.centroid_offset, "frame": frame, "solver": method})
         return probe, lab_state(sim)
 
 

@@ -515,6 +515,25 @@ class Simulator:
         return False
 
 
+def run_first_success(make, attempts, t_end: float, save_every: float):
+    """Run ``make(method, frame)`` for each (method, frame) of ``attempts`` until one run to
+    ``t_end`` succeeds (callers list CVODE in one or two frames, then the fixed-step solver:
+    it does not stall where CVODE's step size collapses). Returns (trajectory, simulator,
+    method, frame, errors), trajectory None if every attempt failed; invalid parameters raise."""
+    errors = []
+    for method, frame in attempts:
+        sim = make(method, frame)
+        try:
+            return sim.run(t_end, save_every=save_every, progress=False), sim, method, frame, errors
+        except ParameterError:
+            raise
+        except SimulationError as exc:
+            errors.append(f"{method}, {frame} frame: {exc}")
+        except (ArithmeticError, ValueError, RuntimeError) as exc:  # e.g. raised inside the rhs
+            errors.append(f"{method}, {frame} frame: {type(exc).__name__}: {exc}")
+    return None, None, None, None, errors
+
+
 def checkpoint_path(output: str | Path) -> Path:
     output = Path(output)
     return output.with_name(output.name + ".ckpt")

@@ -33,7 +33,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..errors import ParameterError, SimulationError
+from ..errors import ParameterError
 from ..motor import Boundary
 from ..params import Params, check_choice, check_range, positive
 from .regimes import decide, measure
@@ -96,7 +96,7 @@ class RunConfig:
     def __call__(self, torque: float, state: tuple | None = None) -> tuple[dict, tuple | None]:
         from ..helix import Helix
         from ..motor import Motor
-        from ..simulator import Simulator, SolverOptions
+        from ..simulator import Simulator, SolverOptions, run_first_success
 
         M = float(torque)
         if state is None and M >= self.step_from:
@@ -107,25 +107,20 @@ class RunConfig:
         t_total = t_start + self.t_end
         # the co-rotating frame fails with CVODE at large torques (and after a step)
         frames = ("lab", "auto") if (state is not None or M >= self.step_from) else ("auto", "lab")
-        # last resort: fixed steps do not stall where CVODE's step size collapses (t + h = t)
         attempts = [("cvode", f) for f in frames] + [("implicit", "lab")]
-        wall0, err = time.perf_counter(), None
-        for method, frame in attempts:
+        wall0 = time.perf_counter()
+
+        def make(method, frame):
             sim = Simulator(self.params, motor, self.boundary,
                             solver=SolverOptions(method=method, rtol=self.rtol,
                                                  atol=self.rtol * 1e-2, frame=frame))
             if state is not None:
                 start_from(sim, state)
-            try:
-                tr = sim.run(t_total, save_every=t_total / self.samples, progress=False)
-                err = None
-                break
-            except SimulationError as exc:
-                err = f"{method}, {frame} frame: {exc}"
-            except ParameterError:
-                raise
-            except (ArithmeticError, RuntimeError, ValueError) as exc:  # e.g. raised in the rhs
-                err = f"{method}, {frame} frame: {type(exc).__name__}: {exc}"
+            return sim
+
+        tr, sim, method, frame, errors = run_first_success(make, attempts, t_total,
+                                                           t_total / self.samples)
+        err = errors[-1] if tr is None else None
         probe = {"torque": M, "t_end": self.t_end, "continued": state is not None,
                  "wall_seconds": time.perf_counter() - wall0}
         if err is not None:

@@ -288,11 +288,10 @@ def simulate_point(spec: dict) -> dict:
     regime) or ``error`` when the run failed with every solver setting tried.
     """
     from ..analysis.regimes import classify
-    from ..errors import SimulationError
     from ..helix import Helix
     from ..motor import Motor
     from ..params import Params
-    from ..simulator import Simulator, SolverOptions
+    from ..simulator import Simulator, SolverOptions, run_first_success
 
     params = spec.get("params") or Params()
     helix = Helix.from_filament(params.filament)
@@ -312,23 +311,16 @@ def simulate_point(spec: dict) -> dict:
         frames.append("lab")
     n_save = int(spec.get("samples", 600))
     wall0 = time.perf_counter()
-    err = None
     attempts = [("implicit" if thermal else "cvode", frame) for frame in frames]
-    if not thermal:  # last resort: fixed steps do not stall where CVODE's step size collapses
+    if not thermal:
         attempts.append(("implicit", frames[-1]))
-    errors = []
-    for method, frame in attempts:
+
+    def make(method, frame):
         solver = SolverOptions(method=method, frame=frame, dt=float(spec.get("dt", 5e-5)))
-        sim = Simulator(params, motor, thermal=thermal, seed=int(spec.get("seed", 0)), solver=solver)
-        try:
-            tr = sim.run(t_end, save_every=t_end / n_save, progress=False)
-            err = None
-            break
-        except SimulationError as exc:
-            err = f"{method}, {frame} frame: {exc}"
-        except (ArithmeticError, ValueError, RuntimeError) as exc:  # e.g. raised inside the rhs
-            err = f"{method}, {frame} frame: {type(exc).__name__}: {exc}"
-        errors.append(err)
+        return Simulator(params, motor, thermal=thermal, seed=int(spec.get("seed", 0)), solver=solver)
+
+    tr, _, method, frame, errors = run_first_success(make, attempts, t_end, t_end / n_save)
+    err = errors[-1] if tr is None else None
     out = {"torque": M, "t_end": t_end, "protocol": protocol, "thermal": thermal,
            "wall_seconds": time.perf_counter() - wall0}
     if spec.get("log"):

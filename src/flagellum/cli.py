@@ -13,7 +13,7 @@ from dataclasses import fields
 import click
 import numpy as np
 
-from . import __version__
+from ._version import __version__
 from .errors import FlagellumError
 from .params import Filament, Fluid, Friction, Params
 
@@ -62,7 +62,7 @@ def params_from_cli(kwargs: dict) -> Params:
     return Params.from_flat(flat, base=base)
 
 
-def _jsonable(obj):
+def _jsonable(obj):  # moved: flagellum._util.jsonable
     if isinstance(obj, dict):
         return {str(k): _jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple, np.ndarray)):

@@ -72,7 +72,7 @@ def provenance() -> dict:
     import platform
     import subprocess
 
-    from . import __version__
+    from ._version import __version__
 
     rev = ""
     try:

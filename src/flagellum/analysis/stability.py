@@ -53,7 +53,7 @@ from scipy.optimize import brentq
 from ..errors import ParameterError, SimulationError
 from ..motor import Boundary, Motor
 from ..params import Params, check_range, check_real
-from ..rod.model import RodModel
+from ..rod.model import JACOBIAN_BAND, RodModel
 
 FD_STEP = 1e-7  #: central-difference step [µm or rad]; λ is converged to ~1e-8 /s with it
 MAX_TORQUE_STEP = 0.25  #: continuation step in M [pN·µm]
@@ -497,7 +497,7 @@ def simulated_growth_rate(equilibrium: RelativeEquilibrium, t_end: float, *,
     red = _Reduced(m, equilibrium.state)
     xi = np.random.default_rng(seed).normal(size=red.size)
     y0 = red.embed(amplitude * xi / np.linalg.norm(xi))
-    n, kl, ku = len(y0), 15, 12  # band of the rhs Jacobian (bead-by-bead ordering)
+    n, (kl, ku) = len(y0), JACOBIAN_BAND
     sparsity = diags([np.ones(n - abs(k)) for k in range(-kl, ku + 1)], list(range(-kl, ku + 1)))
     t = np.linspace(0.0, t_end, samples)
     sol = solve_ivp(m.rhs, (0.0, t_end), y0, method=method, t_eval=t, rtol=rtol, atol=atol,

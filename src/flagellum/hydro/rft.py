@@ -85,15 +85,13 @@ def bead_nodes(dh: DiscreteHelix):
     Bead i (1 ≤ i < N) carries length h with t = (e3⁽ⁱ⁾ + e3⁽ⁱ⁺¹⁾)/|…|; the end beads
     carry h/2 and the tangent of their one bond.
     """
-    e3 = dh.tangents
+    from .local import bead_node
+
+    e3 = np.asarray(dh.tangents, float)
     n = len(e3)
-    t = np.empty((n + 1, 3))
-    t[0], t[n] = e3[0], e3[-1]
-    mid = e3[:-1] + e3[1:]
-    t[1:n] = mid / np.linalg.norm(mid, axis=1)[:, None]
-    w = np.full(n + 1, dh.segment_length)
-    w[0] = w[n] = dh.segment_length / 2
-    return dh.positions, t, w
+    bonds = np.vstack([e3[:1], e3])  # the kernels' layout: row 0 the hook frame, then the bonds
+    nodes = np.array([bead_node(bonds, i, n) for i in range(n + 1)])
+    return dh.positions, nodes[:, :3], nodes[:, 3] * dh.segment_length
 
 
 def anchored_helix(coeffs: dict) -> dict:

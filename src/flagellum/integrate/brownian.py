@@ -30,6 +30,7 @@ from numba import njit
 
 from .._jit import FASTMATH
 from ..errors import SimulationError
+from ..hydro import local as L
 from ..rod import kernels as K
 from .banded import band_factor, band_solve
 from .cvode import KL, KU
@@ -45,51 +46,24 @@ THERMAL_TOL_FRACTION = 2e-3
 
 
 @njit(cache=True)
-def _bead_tangent(T, i, n):
-    if i == 0:
-        return T[1, 0], T[1, 1], T[1, 2], 0.5
-    if i == n:
-        return T[n, 0], T[n, 1], T[n, 2], 0.5
-    tx, ty, tz = T[i, 0] + T[i + 1, 0], T[i, 1] + T[i + 1, 1], T[i, 2] + T[i + 1, 2]
-    nn = math.sqrt(tx * tx + ty * ty + tz * tz)
-    return tx / nn, ty / nn, tz / nn, 1.0
-
-
-@njit(cache=True)
 def thermal_forces(y, prm, iprm, ref_u, ref_e, kT, dt, g_f, g_m, g_h, ws, xi_f, xi_m, xi_h):
-    """Thermal forces/torques of covariance 2kT R/Δt at state y from unit normals g_*."""
+    """Thermal forces/torques of covariance 2kT R/Δt at state y from unit normals g_*, with R
+    the local friction of :mod:`flagellum.hydro.local` (the drag of the right-hand side)."""
     n = iprm[K.I_N]
     h, gpar, gperp, grot = prm[K.P_H], prm[K.P_GPAR], prm[K.P_GPERP], prm[K.P_GROT]
+    anchor, zeta = iprm[K.I_ANCHOR], prm[K.P_SPHERE]
     T, E1, E2, LEN, S = ws[0], ws[1], ws[2], ws[3], ws[4]
     K.frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, ws[9])
     c = math.sqrt(2.0 * kT / dt)
     for i in range(n + 1):
-        tx, ty, tz, wf = _bead_tangent(T, i, n)
-        w = wf * h
-        gx, gy, gz = g_f[i, 0], g_f[i, 1], g_f[i, 2]
-        gt = gx * tx + gy * ty + gz * tz
-        a, b = c * math.sqrt(w * gpar), c * math.sqrt(w * gperp)
-        xi_f[i, 0] = a * gt * tx + b * (gx - gt * tx)
-        xi_f[i, 1] = a * gt * ty + b * (gy - gt * ty)
-        xi_f[i, 2] = a * gt * tz + b * (gz - gt * tz)
-        if i == 0:
-            if iprm[K.I_ANCHOR] == K.ANCHOR_FIXED:
-                xi_f[0, 0] = xi_f[0, 1] = 0.0
-                xi_f[0, 2] = 0.0
-            elif iprm[K.I_ANCHOR] == K.ANCHOR_SPHERE:
-                zz = w * (gpar * tz * tz + gperp * (1.0 - tz * tz)) + prm[K.P_SPHERE]
-                xi_f[0, 0] = xi_f[0, 1] = 0.0
-                xi_f[0, 2] = c * math.sqrt(zz) * gz
-            else:  # free body sphere: friction w R_rft + 6πηa
-                a, b = c * math.sqrt(w * gpar + prm[K.P_SPHERE]), c * math.sqrt(w * gperp + prm[K.P_SPHERE])
-                xi_f[0, 0] = a * gt * tx + b * (gx - gt * tx)
-                xi_f[0, 1] = a * gt * ty + b * (gy - gt * ty)
-                xi_f[0, 2] = a * gt * tz + b * (gz - gt * tz)
-        xi_m[i] = c * math.sqrt(grot * h) * g_m[i] if i > 0 else 0.0
+        tx, ty, tz, zpar, zperp, mode = L.bead_friction(T, i, n, h, gpar, gperp, anchor, zeta)
+        xi_f[i, 0], xi_f[i, 1], xi_f[i, 2] = L.bead_noise(c, g_f[i, 0], g_f[i, 1], g_f[i, 2],
+                                                          tx, ty, tz, zpar, zperp, mode)
+        xi_m[i] = c * math.sqrt(L.spin_friction(h, grot)) * g_m[i] if i > 0 else 0.0
     tx, ty, tz = T[0, 0], T[0, 1], T[0, 2]
     gt = g_h[0] * tx + g_h[1] * ty + g_h[2] * tz
-    a = c * math.sqrt(grot * h)
-    b = 0.0 if iprm[K.I_HOOK] == K.HOOK_CLAMPED else c * math.sqrt(0.5 * gperp * h * h * h)
+    zt, zp = L.hook_friction(h, gperp, grot, iprm[K.I_HOOK] == K.HOOK_CLAMPED)
+    a, b = c * math.sqrt(zt), c * math.sqrt(zp)
     xi_h[0] = a * gt * tx + b * (g_h[0] - gt * tx)
     xi_h[1] = a * gt * ty + b * (g_h[1] - gt * ty)
     xi_h[2] = a * gt * tz + b * (g_h[2] - gt * tz)
@@ -128,10 +102,7 @@ def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, y
         for c in range(3):
             zf[i, c] = wv[3 + 4 * i + c]
         zm[i] = wv[6 + 4 * i]
-    if iprm[K.I_ANCHOR] == K.ANCHOR_FIXED:
-        zf[0, 0] = zf[0, 1] = zf[0, 2] = 0.0
-    elif iprm[K.I_ANCHOR] == K.ANCHOR_SPHERE:
-        zf[0, 0] = zf[0, 1] = 0.0
+    zf[0, 0], zf[0, 1], zf[0, 2] = L.bead_directions(iprm[K.I_ANCHOR], zf[0, 0], zf[0, 1], zf[0, 2])
     for i in range(ny):
         yp[i] = y[i]
         ym[i] = y[i]

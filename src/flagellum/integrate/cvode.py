@@ -17,8 +17,9 @@ from numba import njit
 
 from ..errors import SimulationError
 from ..rod import kernels as K
+from ..rod.model import JACOBIAN_BAND
 
-KL, KU = 15, 11  #: Jacobian bandwidths of the bead-by-bead state ordering (tests/test_rod.py)
+KL, KU = JACOBIAN_BAND
 
 
 @njit(cache=True)

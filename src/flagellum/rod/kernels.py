@@ -36,9 +36,11 @@ import numpy as np
 from numba import njit
 
 from .._jit import FASTMATH, atan2
+from ..hydro import local as L
 
 HOOK_FREE, HOOK_ELASTIC, HOOK_CLAMPED = 0, 1, 2
-ANCHOR_FIXED, ANCHOR_SPHERE, ANCHOR_FREE = 0, 1, 2
+#: how bead 0 moves: the drag kernels' codes (anchored, on a load sphere, free swimmer)
+ANCHOR_FIXED, ANCHOR_SPHERE, ANCHOR_FREE = L.FIXED, L.AXIAL, L.FREE
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
@@ -259,36 +261,12 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
                 g = (sk - st * T[i, k]) / LEN[i]
                 DR[i, k] += g
                 DR[i - 1, k] -= g
-    # bead velocities (lab frame)
-    anchor = iprm[I_ANCHOR]
+    # bead velocities (lab frame): the local drag of each bead (hydro.local)
+    anchor, zeta = iprm[I_ANCHOR], prm[P_SPHERE]
     for i in range(n + 1):
-        fx, fy, fz = -DR[i, 0], -DR[i, 1], -DR[i, 2]
-        if i == 0:
-            tx, ty, tz = T[1, 0], T[1, 1], T[1, 2]
-            w = 0.5 * h
-        elif i == n:
-            tx, ty, tz = T[n, 0], T[n, 1], T[n, 2]
-            w = 0.5 * h
-        else:
-            tx, ty, tz = T[i, 0] + T[i + 1, 0], T[i, 1] + T[i + 1, 1], T[i, 2] + T[i + 1, 2]
-            nn = math.sqrt(tx * tx + ty * ty + tz * tz)
-            tx, ty, tz = tx / nn, ty / nn, tz / nn
-            w = h
-        if i == 0 and anchor == ANCHOR_FIXED:
-            V[0, 0] = V[0, 1] = V[0, 2] = 0.0
-            continue
-        if i == 0 and anchor == ANCHOR_SPHERE:
-            zz = w * (gpar * tz * tz + gperp * (1.0 - tz * tz)) + prm[P_SPHERE]
-            V[0, 0] = V[0, 1] = 0.0
-            V[0, 2] = fz / zz
-            continue
-        ft = fx * tx + fy * ty + fz * tz
-        ip, iq = 1.0 / (w * gpar), 1.0 / (w * gperp)
-        if i == 0 and anchor == ANCHOR_FREE:  # body sphere on bead 0: drag 6πηa added
-            ip, iq = 1.0 / (w * gpar + prm[P_SPHERE]), 1.0 / (w * gperp + prm[P_SPHERE])
-        V[i, 0] = iq * fx + (ip - iq) * ft * tx
-        V[i, 1] = iq * fy + (ip - iq) * ft * ty
-        V[i, 2] = iq * fz + (ip - iq) * ft * tz
+        tx, ty, tz, zpar, zperp, mode = L.bead_friction(T, i, n, h, gpar, gperp, anchor, zeta)
+        V[i, 0], V[i, 1], V[i, 2] = L.bead_velocity(-DR[i, 0], -DR[i, 1], -DR[i, 2], tx, ty, tz,
+                                                    zpar, zperp, mode)
     for i in range(n + 1):  # positions in the rotating frame
         o = 3 + 4 * i
         ydot[o] = V[i, 0] + omega_frame * y[o + 1]
@@ -297,7 +275,7 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
     # bond spins: γR h ω3 = −∂E/∂θ + m_th; θ̇ = ω3 − Ω t_z − s·ṫ
     for i in range(1, n + 1):
         o, p = 3 + 4 * i, 3 + 4 * (i - 1)
-        om = -GTH[i] / (grot * h) - omega_frame * T[i, 2]
+        om = -GTH[i] / L.spin_friction(h, grot) - omega_frame * T[i, 2]
         inv = 1.0 / LEN[i]
         dx = (ydot[o] - ydot[p]) * inv
         dy = (ydot[o + 1] - ydot[p + 1]) * inv
@@ -310,11 +288,12 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
     my = ext_hook[1] - (qy + GTH[0] * ty)
     mz = ext_hook[2] + el * prm[P_TORQUE] - (qz + GTH[0] * tz)
     mt = mx * tx + my * ty + mz * tz
-    wt = mt / (grot * h)
-    if iprm[I_HOOK] == HOOK_CLAMPED:
+    zt, zp = L.hook_friction(h, gperp, grot, iprm[I_HOOK] == HOOK_CLAMPED)
+    wt = mt / zt
+    if zp == 0.0:  # clamped: turns about its tangent only
         wx, wy, wz = wt * tx, wt * ty, wt * tz
     else:
-        ipp = 1.0 / (0.5 * gperp * h * h * h)
+        ipp = 1.0 / zp
         wx = wt * tx + ipp * (mx - mt * tx)
         wy = wt * ty + ipp * (my - mt * ty)
         wz = wt * tz + ipp * (mz - mt * tz)

@@ -14,6 +14,10 @@ from ..motor import Boundary, Motor
 from ..params import Params
 from . import kernels as K
 
+#: (lower, upper) bandwidth of the right-hand side's Jacobian in the bead-by-bead state
+#: ordering; tight for every boundary and hook (tests/test_rod.py)
+JACOBIAN_BAND = (15, 11)
+
 _HOOK = {"free": K.HOOK_FREE, "elastic": K.HOOK_ELASTIC, "clamped": K.HOOK_CLAMPED}
 _ANCHOR = {"fixed": K.ANCHOR_FIXED, "sphere": K.ANCHOR_SPHERE, "free": K.ANCHOR_FREE}
 

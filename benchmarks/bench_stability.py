@@ -19,7 +19,7 @@ import time
 from click.testing import CliRunner
 
 from flagellum.analysis.stability import critical_torque, linear_stability
-from flagellum.analysis.stability_cli import critical_torque as cli_critical_torque
+from flagellum.cli.stability import critical_torque as cli_critical_torque
 from flagellum.params import Filament, Params
 
 QUICK, FULL = "--quick" in sys.argv, "--full" in sys.argv

@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import assert_one_line_error
 
 from flagellum.analysis import bifurcations as bif
 from flagellum.analysis.bifurcations import (RunConfig, bifurcations, bracket, continuation,
@@ -219,10 +220,9 @@ def test_cli_json_and_out(tmp_path, capsys, monkeypatch):
     (["--tol", "-1"], "tol"), (["--t-end", "0"], "t_end"), (["--sphere-radius", "-1"], "sphere_radius"),
     (["--workers", "0"], "workers"), (["--quality", "best"], "quality"),
 ])
-def test_cli_bad_input_one_line_exit_2(capsys, args, word):
-    code = run(["bifurcations", *args, "--json"])
-    err = capsys.readouterr().err
-    assert code == 2 and len(err.strip().splitlines()) == 1 and word in err
+def test_cli_bad_input_one_line_exit_2(cli, args, word):
+    code, _, err = cli("bifurcations", *args, "--json")
+    assert_one_line_error(code, err, word)
 
 
 # -- slow tier: the real filament ------------------------------------------------------------

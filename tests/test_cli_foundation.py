@@ -5,22 +5,21 @@ import subprocess
 import sys
 
 import pytest
+from conftest import assert_one_line_error, run_cli_subprocess
 
 from flagellum.cli import run
 
 
-def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "flagellum.cli", *args],
-                          capture_output=True, text=True, timeout=120)
-
-
 def test_version():
-    r = _cli("--version")
+    r = run_cli_subprocess("--version")
+    assert r.returncode == 0 and "flagellum" in r.stdout
+    r = subprocess.run([sys.executable, "-m", "flagellum.cli", "--version"], capture_output=True,
+                       text=True, timeout=120)
     assert r.returncode == 0 and "flagellum" in r.stdout
 
 
 def test_rft_json_keys_and_values():
-    r = _cli("rft", "--json")
+    r = run_cli_subprocess("rft", "--json")
     assert r.returncode == 0, r.stderr
     d = json.loads(r.stdout)
     for k in ("radius", "pitch", "pitch_angle_deg", "axial_length", "gamma_par", "gamma_perp",
@@ -35,7 +34,8 @@ def test_rft_json_keys_and_values():
 
 
 def test_rft_flags_change_values():
-    d = json.loads(_cli("rft", "--json", "--handedness", "left", "--friction", "lighthill").stdout)
+    d = json.loads(run_cli_subprocess("rft", "--json", "--handedness", "left", "--friction",
+                                      "lighthill").stdout)
     assert d["thrust_per_torque"] < 0
     assert d["gamma_par"] == d["lighthill"]["gamma_par"]
 
@@ -46,27 +46,138 @@ def test_rft_flags_change_values():
     (["--length", "abc"], "length"), (["--friction", "magic"], "friction"),
     (["--config", "/nonexistent.toml"], "config"), (["--critical-force", "inf"], "critical_force"),
 ])
-def test_bad_input_one_line_exit_2(args, name, capsys):
-    code = run(["rft", *args])
-    err = capsys.readouterr().err
-    assert code == 2
-    assert len(err.strip().splitlines()) == 1
-    assert name.replace("_", "-") in err or name in err
-    assert "Traceback" not in err
+def test_bad_input_one_line_exit_2(args, name, cli):
+    code, _, err = cli("rft", *args)
+    assert_one_line_error(code, err, name)
 
 
 def test_bad_input_subprocess_has_no_traceback():
-    r = _cli("rft", "--length", "-1")
-    assert r.returncode == 2 and "Traceback" not in r.stderr
-    assert len(r.stderr.strip().splitlines()) == 1
+    r = run_cli_subprocess("rft", "--length", "-1")
+    assert_one_line_error(r.returncode, r.stderr)
 
 
 def test_c_level_stdout_does_not_spoil_json():
     """Libraries that write to file descriptor 1 (SUNDIALS' warnings) end up on stderr; the
     results printed by the CLI stay alone on stdout."""
-    code = ("import os, sys; from flagellum import cli; cli.keep_stdout_for_results(); "
-            "os.write(1, b'[WARNING] from C\\n'); cli.emit_json({'a': 1}); sys.stdout.flush(); "
+    code = ("import os, sys; from flagellum import cli; from flagellum.cli._output import emit_json; "
+            "cli.keep_stdout_for_results(); "
+            "os.write(1, b'[WARNING] from C\\n'); emit_json({'a': 1}); sys.stdout.flush(); "
             "os.write(1, b'[WARNING] again\\n')")
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert json.loads(res.stdout) == {"a": 1}
     assert res.stderr.count("[WARNING]") == 2
+
+
+# -- registration and missing packages ------------------------------------------------------
+
+def _listed_commands(help_text: str) -> set:
+    lines = help_text.split("Commands:", 1)[1].splitlines()
+    return {line.split()[0] for line in lines if line.startswith("  ") and line.strip()}
+
+
+def _python(code: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+
+
+def test_help_lists_every_command_even_without_numba():
+    from flagellum.cli import main
+
+    assert _listed_commands(run_cli_subprocess("--help").stdout) == set(main.commands)
+    r = _python("import sys; sys.modules['numba'] = None; from flagellum.cli import run; "
+                "sys.exit(run(['--help']))")
+    assert r.returncode == 0, r.stderr
+    assert _listed_commands(r.stdout) == set(main.commands)
+
+
+@pytest.mark.parametrize("package,args", [
+    ("numba", ["theory", "buckling"]), ("numba", ["stability", "--torque", "1"]),
+    ("scipy", ["critical-torque"]), ("h5py", ["info", "run.h5"]),
+])
+def test_missing_package_is_one_line_naming_it(package, args):
+    r = _python(f"import sys; sys.modules[{package!r}] = None; from flagellum.cli import run; "
+                f"sys.exit(run({args!r}))")
+    assert_one_line_error(r.returncode, r.stderr)
+    command = " ".join(a for a in args[:2] if not a.startswith("-") and a != "run.h5")
+    assert r.stderr.strip() == (f"flagellum: error: command '{command}' needs the package "
+                                f"'{package}' (pip install {package})")
+
+
+# -- boundary flags: one builder for every command -----------------------------------------
+
+#: the further arguments with which each command that takes boundary flags gets as far as
+#: building its Boundary
+BOUNDARY_COMMANDS = {
+    "simulate": [], "stability": ["--torque", "1"], "critical-torque": [],
+    "bifurcations": ["--mc1-only"], "sweep": ["--torque", "1", "--out", "{tmp}/s.nc"],
+}
+
+
+class _Built(Exception):
+    """Raised by the first Boundary a command builds, carrying it."""
+
+
+@pytest.fixture
+def first_boundary(monkeypatch):
+    from flagellum.motor import Boundary
+
+    post_init = Boundary.__post_init__
+
+    def spy(self):
+        post_init(self)
+        raise _Built(self)
+
+    monkeypatch.setattr(Boundary, "__post_init__", spy)
+
+
+def test_boundary_commands_are_all_tested():
+    from flagellum.cli import main
+
+    def walk(group):
+        for name, cmd in group.commands.items():
+            if isinstance(cmd, type(main)):
+                yield from walk(cmd)
+            elif any(p.name == "hook_stiffness" for p in cmd.params):
+                yield name
+
+    assert set(walk(main)) == set(BOUNDARY_COMMANDS)
+
+
+@pytest.mark.parametrize("command", sorted(BOUNDARY_COMMANDS))
+@pytest.mark.parametrize("flag,value,expect", [
+    ("--hook-stiffness", "0.5", {"hook": "elastic", "hook_stiffness": 0.5, "anchor": "fixed"}),
+    ("--sphere-radius", "2", {"anchor": "sphere", "sphere_radius": 2.0, "hook": "free"}),
+])
+def test_boundary_flag_implies_its_kind(command, flag, value, expect, first_boundary, tmp_path):
+    """``--hook-stiffness k`` alone is an elastic hook with that k and ``--sphere-radius a``
+    alone a load sphere, in every command."""
+    extra = [a.format(tmp=tmp_path) for a in BOUNDARY_COMMANDS[command]]
+    with pytest.raises(_Built) as built:
+        run([command, flag, value, *extra])
+    b = built.value.args[0]
+    assert {k: getattr(b, k) for k in expect} == expect
+
+
+def test_boundary_from_flags_keeps_given_kinds():
+    """Explicit kinds stay (a sweep over hooks at one k keeps its free and clamped points)."""
+    from flagellum.motor import Boundary
+
+    assert Boundary.from_flags(hook_stiffness=0.5) == Boundary(hook="elastic", hook_stiffness=0.5)
+    assert Boundary.from_flags(hook="free", hook_stiffness=0.5) == Boundary()
+    assert Boundary.from_flags(hook="clamped", hook_stiffness=0.5) == Boundary(hook="clamped")
+    assert Boundary.from_flags(sphere_radius=1.0) == Boundary(anchor="sphere", sphere_radius=1.0)
+    assert Boundary.from_flags(anchor="free") == Boundary(anchor="free", sphere_radius=0.0)
+
+
+def test_stability_hook_stiffness_is_an_elastic_hook(cli):
+    """The growth rate with ``--hook-stiffness`` alone is that of the elastic hook, not the
+    free one."""
+    def lam(*flags):
+        code, out, err = cli("stability", "--torque", "1.5", "--segment-length", "0.5",
+                             "--n-eigs", "1", "--json", *flags)
+        assert code == 0, err
+        return json.loads(out)["lambda"]
+
+    implied = lam("--hook-stiffness", "0.5")
+    elastic = lam("--hook", "elastic", "--hook-stiffness", "0.5")
+    assert implied == elastic
+    assert abs(implied - lam()) > 1e-3 * abs(lam())

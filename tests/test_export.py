@@ -5,6 +5,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
+from conftest import assert_one_line_error
 
 from flagellum import Filament, Params
 from flagellum.cli import run
@@ -25,9 +26,8 @@ def run_file(tmp_path_factory):
 def _one_line_exit_2(args, capsys):
     code = run(args)
     err = capsys.readouterr().err
-    assert code == 2, err
-    assert len(err.strip().splitlines()) == 1
-    assert "Traceback" not in err
+    assert_one_line_error(code, err)
+    return err
     return err
 
 

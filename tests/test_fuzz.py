@@ -91,6 +91,7 @@ def test_cli_corrupt_hdf5(tmp_path):
 
 
 import pytest  # noqa: E402
+from conftest import assert_one_line_error  # noqa: E402
 
 
 @pytest.mark.parametrize("args", [
@@ -105,9 +106,7 @@ import pytest  # noqa: E402
 ])
 def test_cli_simulate_bad_input(args, capsys, tmp_path):
     code = run(["simulate", "--length", "2", "--time", "0.001", *args])
-    err = capsys.readouterr().err
-    assert code == 2, err
-    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert_one_line_error(code, capsys.readouterr().err)
     assert not list(tmp_path.iterdir())
 
 
@@ -120,7 +119,6 @@ def test_cli_simulate_bad_input(args, capsys, tmp_path):
 def test_cli_regressions(args, capsys, tmp_path):
     f = tmp_path / "f"
     f.write_text("not a directory")
-    assert run([str(f) if a == "FILE" else a.replace("FILE", str(f)) for a in args]) == 2
-    err = capsys.readouterr().err
-    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    code = run([str(f) if a == "FILE" else a.replace("FILE", str(f)) for a in args])
+    assert_one_line_error(code, capsys.readouterr().err)
     assert [p.name for p in tmp_path.iterdir()] == ["f"]

@@ -12,6 +12,7 @@ import time
 import h5py
 import numpy as np
 import pytest
+from conftest import assert_one_line_error, run_cli_subprocess
 
 from flagellum import ParameterError, Params, SimulationError
 from flagellum.cli import run as cli
@@ -25,11 +26,6 @@ ARGS = ["simulate", "--torque", "0.5", "--length", "2", "--time", "0.4", "--save
 #: part 0, checkpoint 0, part 1, checkpoint 1, final main file
 RUN = dict(t_end=0.06, save_every=1e-3, checkpoint_every=0.02, progress=False)
 N_REPLACES = 6
-
-
-def _cli(*args, **kw):
-    return subprocess.run([sys.executable, "-m", "flagellum.cli", *args], capture_output=True,
-                          text=True, timeout=600, **kw)
 
 
 def _new_sim():
@@ -198,7 +194,7 @@ def test_full_or_unwritable_directory_is_reported_before_the_run(tmp_path, monke
 def test_sigkill_and_resume_is_bit_identical(tmp_path):
     """The real thing: a CLI process killed by a signal at an arbitrary moment."""
     ref = tmp_path / "ref.h5"
-    r = _cli(*ARGS, "--output", str(ref))
+    r = run_cli_subprocess(*ARGS, "--output", str(ref))
     assert r.returncode == 0, r.stderr
     out = tmp_path / "run.h5"
     ckpt = tmp_path / "run.h5.ckpt"
@@ -211,7 +207,7 @@ def test_sigkill_and_resume_is_bit_identical(tmp_path):
     if killed:
         os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
-    r2 = _cli("simulate", "--resume", str(out), "--json")
+    r2 = run_cli_subprocess("simulate", "--resume", str(out), "--json")
     assert r2.returncode == 0, r2.stderr
     assert sorted(os.listdir(tmp_path)) == ["ref.h5", "run.h5"]
     with h5py.File(ref) as a, h5py.File(out) as b:
@@ -226,5 +222,5 @@ def test_sigkill_and_resume_is_bit_identical(tmp_path):
 
 
 def test_resume_without_checkpoint_is_one_line_error(tmp_path):
-    r = _cli("simulate", "--resume", str(tmp_path / "nothing.h5"))
-    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+    r = run_cli_subprocess("simulate", "--resume", str(tmp_path / "nothing.h5"))
+    assert_one_line_error(r.returncode, r.stderr)

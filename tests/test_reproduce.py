@@ -9,6 +9,7 @@ import json
 import math
 
 import pytest
+from conftest import assert_one_line_error
 
 from flagellum.cli import run
 from flagellum.reproduce import reproduce
@@ -140,18 +141,16 @@ def test_write_csv_and_blank_image(tmp_path):
     (["reproduce", "fig9"], "figure"),
     (["reproduce", "fig3", "--quality", "medium"], "quality"),
 ])
-def test_bad_input_one_line_exit_2(args, name, tmp_path, capsys):
-    code = run(args + ["--out", str(tmp_path)])
-    err = capsys.readouterr().err
-    assert code == 2
-    assert len(err.strip().splitlines()) == 1 and name in err and "Traceback" not in err
+def test_bad_input_one_line_exit_2(args, name, tmp_path, cli):
+    code, _, err = cli(*args, "--out", tmp_path)
+    assert_one_line_error(code, err, name)
 
 
-def test_out_is_a_file_exit_2(tmp_path, capsys):
+def test_out_is_a_file_exit_2(tmp_path, cli):
     f = tmp_path / "file"
     f.write_text("x")
-    assert run(["reproduce", "fig6", "--out", str(f)]) == 2
-    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    code, _, err = cli("reproduce", "fig6", "--out", f)
+    assert_one_line_error(code, err)
 
 
 def test_fig5_simulation_checks_bracket_each_critical_torque(monkeypatch):

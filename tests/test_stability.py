@@ -13,11 +13,13 @@ from functools import lru_cache
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import assert_one_line_error
 
 from flagellum import Filament, Params, ParameterError, discrete_helix
 from flagellum.analysis.stability import (critical_torque, linear_stability, relative_equilibrium,
                                           simulated_growth_rate)
-from flagellum.analysis.stability_cli import COMMANDS
+from flagellum.cli.stability import critical_torque as critical_torque_cmd
+from flagellum.cli.stability import stability as stability_cmd
 from flagellum.helix import Helix
 from flagellum.hydro import rft
 from flagellum.motor import Boundary
@@ -157,16 +159,8 @@ def test_bad_bracket(bracket):
 
 
 # -- CLI -----------------------------------------------------------------------------------
-def _register():
-    from flagellum.cli import main
-
-    for cmd in COMMANDS:
-        main.add_command(cmd)
-
-
 def test_cli_json_matches_api():
-    _register()
-    r = CliRunner().invoke(COMMANDS[0], ["--torque", "0.5", "--segment-length", "0.4", "--json",
+    r = CliRunner().invoke(stability_cmd, ["--torque", "0.5", "--segment-length", "0.4", "--json",
                                          "--n-eigs", "3"])
     assert r.exit_code == 0, r.output
     d = json.loads(r.output)
@@ -175,7 +169,7 @@ def test_cli_json_matches_api():
     assert d["omega"] == pytest.approx(api.omega, rel=1e-9)
     assert len(d["eigenvalues"]) == 3 and d["eigenvalues"][0] == pytest.approx(
         [api.eigenvalues[0].real, api.eigenvalues[0].imag], rel=1e-6)
-    r = CliRunner().invoke(COMMANDS[1], ["--segment-length", "0.4", "--json"])
+    r = CliRunner().invoke(critical_torque_cmd, ["--segment-length", "0.4", "--json"])
     assert r.exit_code == 0, r.output
     assert set(json.loads(r.output)) >= {"critical_torque", "critical_force", "omega", "wall_seconds"}
 
@@ -186,13 +180,9 @@ def test_cli_json_matches_api():
     (["stability", "--torque", "1", "--sphere-radius", "-1"], "sphere_radius"),
     (["critical-torque", "--segment-length", "0.4", "--bracket", "0.5", "0.6"], "bracket"),
 ])
-def test_cli_bad_input_one_line_exit_2(args, name, capsys):
-    from flagellum.cli import run
-
-    _register()
-    assert run(args) == 2
-    err = capsys.readouterr().err
-    assert len(err.strip().splitlines()) == 1 and name in err and "Traceback" not in err
+def test_cli_bad_input_one_line_exit_2(args, name, cli):
+    code, _, err = cli(*args)
+    assert_one_line_error(code, err, name)
 
 
 # -- slow: simulation, convergence, boundaries ---------------------------------------------

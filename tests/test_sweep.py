@@ -15,6 +15,7 @@ import time
 
 import numpy as np
 import pytest
+from conftest import assert_one_line_error
 
 from flagellum.cli import run
 from flagellum.errors import ParameterError
@@ -136,10 +137,9 @@ def test_toml_config(tmp_path):
     (["--torque", "1,2", "--scheduler", "tcp://127.0.0.1:1", "--dask-local", "1"], "scheduler"),
     (["--torque", "1,2", "--workers", "0"], "workers"),
 ])
-def test_cli_bad_input_one_line_exit_2(tmp_path, capsys, args, word):
-    code = run(["sweep", *args, "--out", str(tmp_path / "x.nc"), "--json"])
-    err = capsys.readouterr().err
-    assert code == 2 and len(err.strip().splitlines()) == 1 and word in err
+def test_cli_bad_input_one_line_exit_2(tmp_path, cli, args, word):
+    code, _, err = cli("sweep", *args, "--out", tmp_path / "x.nc", "--json")
+    assert_one_line_error(code, err, word)
     assert not (tmp_path / "x.nc").exists()
 
 

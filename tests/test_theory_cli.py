@@ -4,6 +4,7 @@ import json
 import math
 
 import pytest
+from conftest import assert_one_line_error
 
 from flagellum.cli import run
 
@@ -72,12 +73,9 @@ def test_rigid_helix_json(capsys):
     (["effective-rigidity", "--length", "-1"], "length"),
     (["manifold", "--m-steps", "1"], "m_steps"),
 ])
-def test_bad_input_one_line_exit_2(args, name, capsys):
-    code = run(["theory", *args])
-    err = capsys.readouterr().err
-    assert code == 2
-    assert len(err.strip().splitlines()) == 1 and name in err
-    assert "Traceback" not in err
+def test_bad_input_one_line_exit_2(args, name, cli):
+    code, _, err = cli("theory", *args)
+    assert_one_line_error(code, err, name)
 
 
 @pytest.mark.slow

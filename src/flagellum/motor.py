@@ -82,6 +82,19 @@ class Boundary:
             raise ParameterError("hook_stiffness", k, "> 0 with hook = 'elastic'")
         object.__setattr__(self, "hook_stiffness", k if self.hook == "elastic" else 0.0)
 
+    @classmethod
+    def from_flags(cls, anchor: str | None = None, sphere_radius: float | None = None,
+                   hook: str | None = None, hook_stiffness: float | None = None) -> "Boundary":
+        """The boundary of the command-line flags and sweep values: an anchor not given is a
+        load sphere when ``sphere_radius`` is given (else fixed); a hook not given is elastic
+        when ``hook_stiffness`` k > 0 (else free). Given values are kept as they are."""
+        k = 0.0 if hook_stiffness is None else hook_stiffness
+        if anchor is None:
+            anchor = "fixed" if sphere_radius is None else "sphere"
+        if hook is None:
+            hook = "elastic" if k else "free"
+        return cls(anchor=anchor, sphere_radius=sphere_radius, hook=hook, hook_stiffness=k)
+
     def sphere_drag(self, viscosity: float) -> float:
         """Stokes drag 6πηa of the load sphere or of a free swimmer's body [pN·s/µm]."""
         return 6 * math.pi * viscosity * self.sphere_radius if self.anchor != "fixed" else 0.0

@@ -277,10 +277,8 @@ class PointRun:
         params = Params.from_flat({k: v[k] for k in _MODEL if k in v})
         params.gammas  # noqa: B018 -- resolves (and so validates) the friction model
         motor = Motor(**{k: v[k] for k in ("torque", "ramp_time") if k in v})
-        radius, k = v.get("sphere_radius"), v.get("hook_stiffness", 0.0)
-        boundary = Boundary(anchor=v.get("anchor", "fixed" if radius is None else "sphere"),
-                            sphere_radius=radius, hook=v.get("hook", "elastic" if k else "free"),
-                            hook_stiffness=k)
+        boundary = Boundary.from_flags(**{k: v[k] for k in ("anchor", "sphere_radius", "hook",
+                                                            "hook_stiffness") if k in v})
         thermal = bool(v.get("thermal", "kT" in v))
         solver = {"method": v.get("method", "implicit" if thermal else "cvode"),
                   **({"rtol": v["rtol"], "atol": v["rtol"] * 1e-2} if "rtol" in v else {}),

@@ -11,10 +11,10 @@ import math
 import click
 import numpy as np
 
-from .. import cli as _main
-from ..cli import emit_json, emit_table, param_options, params_from_cli
 from ..errors import ParameterError
 from ..params import check_range, check_real
+from ._options import param_options, params_from_cli
+from ._output import emit_json, emit_table
 
 #: Helix geometries of App. C (Fig. 8): normal form (peritrichous) and monotrichous.
 GEOMETRIES = {"normal": (1.3, 2.1), "monotrichous": (2.2, 2.5)}
@@ -67,7 +67,7 @@ def _count(name: str, value: int, lo: int, hi: int) -> int:
 def buckling(m_hat, f_par, f_perp, chi, base, top, force_profile, torque_profile, unknowns,
              guess, method, samples, as_json):
     """Critical values of the linearised buckling equations (paper §4, eq. lin buckling)."""
-    from .buckling import BucklingProblem, solve
+    from ..theory.buckling import BucklingProblem, solve
 
     prob = BucklingProblem(m_hat, f_par, f_perp, chi, base, top, force_profile, torque_profile)
     cp = solve(prob, unknowns, _floats("guess", guess), method=method)
@@ -101,9 +101,9 @@ def buckling(m_hat, f_par, f_perp, chi, base, top, force_profile, torque_profile
 def manifold(out_dir, m_max, m_steps, f_par_max, f_par_steps, inv_a_max, inv_a_steps, base,
              workers, as_json, **kwargs):
     """Critical manifold, buckling curves, plane of eq. (plane) and M_c1(1/a) (Fig. 7)."""
-    from .buckling import BASES
     from ..params import check_choice
-    from .manifold import compute_manifold, write_manifold
+    from ..theory.buckling import BASES
+    from ..theory.manifold import compute_manifold, write_manifold
 
     params = params_from_cli(kwargs)
     check_choice("base", base, BASES)
@@ -141,7 +141,7 @@ def manifold(out_dir, m_max, m_steps, f_par_max, f_par_steps, inv_a_max, inv_a_s
 def rigid_helix(torque, tilt, t_end, origin, as_json, **kwargs):
     """Precession of a rigid helix under a constant torque (App. B)."""
     from ..helix import rot_x
-    from .rigid_helix import rotate, rotational_resistance
+    from ..theory.rigid_helix import rotate, rotational_resistance
 
     params = params_from_cli(kwargs)
     torque, tilt = check_real("torque", torque), check_real("tilt", tilt)
@@ -170,7 +170,7 @@ def rigid_helix(torque, tilt, t_end, origin, as_json, **kwargs):
 
 def effective_rigidity_summary(params) -> dict:
     """A_eff (App. C) and the Fig. 8 scales for ``params`` and for the two geometries."""
-    from .manifold import HelicalRod
+    from ..theory.manifold import HelicalRod
 
     def scales(p):
         rod = HelicalRod.from_params(p)
@@ -196,7 +196,7 @@ def effective_rigidity(as_json, measure, **kwargs):
     params = params_from_cli(kwargs)
     out = effective_rigidity_summary(params)
     if measure:
-        from .effective_rigidity import measured_bending_rigidity
+        from ..theory.effective_rigidity import measured_bending_rigidity
 
         out["A_eff_measured"] = measured_bending_rigidity(params)
     if as_json:
@@ -207,8 +207,3 @@ def effective_rigidity(as_json, measure, **kwargs):
         for name in ("filament", *GEOMETRIES):
             emit_table(out[name], f"{name}:")
 
-
-# Registered by flagellum.cli on import; if this module was imported first, that import
-# ran into the half-initialised module, so register here.
-if "theory" not in _main.main.commands:
-    _main.main.add_command(theory)

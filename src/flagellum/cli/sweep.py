@@ -1,15 +1,16 @@
-"""CLI command ``flagellum sweep`` (registered by :mod:`flagellum.cli` from :data:`COMMANDS`)."""
+"""``flagellum sweep``: a grid of simulations."""
 
 from __future__ import annotations
 
 import click
 
-from .cli import _FLAG_HELP, emit_json, emit_table
-from .errors import ParameterError
-from .sweep import FALLBACK_PARAMETERS, PARAMETERS, Sweep, parse_values, run_sweep
+from ..errors import ParameterError
+from ..sweep import FALLBACK_PARAMETERS, PARAMETERS, Sweep, parse_values, run_sweep
+from ._options import PARAM_HELP
+from ._output import emit_json, emit_table
 
 _HELP = {
-    **_FLAG_HELP,
+    **PARAM_HELP,
     "friction": "friction model: paper, lighthill, custom",
     "torque": "motor torque M [pN·µm] (> 0 pushes)",
     "ramp_time": "ramp the torque on over this time [s]",
@@ -87,5 +88,3 @@ def sweep(ctx, config, out, resume, overwrite, retry_failed, fallback, workers, 
                    f"rerun with --resume", err=True)
         ctx.exit(1)
 
-
-COMMANDS = [sweep]

@@ -1,30 +1,19 @@
-"""CLI command ``flagellum bifurcations`` (registered by :mod:`flagellum.cli` from :data:`COMMANDS`)."""
+"""``flagellum bifurcations``: the bifurcation torques M_c1 and M_c2."""
 
 from __future__ import annotations
 
-import json
 import sys
 
 import click
 
-from ..cli import _jsonable, emit_json, emit_table, param_options, params_from_cli
-from .bifurcations import QUALITIES, bifurcations as find
-from .stability_cli import boundary_from_cli, boundary_options
-
-
-def _writer(out, head: dict):
-    """Write the partial result atomically after every finished probe."""
-    from ..io import atomic_write_text
-
-    def write(obj):
-        atomic_write_text(out, json.dumps(_jsonable(obj), indent=2) + "\n")
-
-    return (lambda probes: write({**head, "complete": False, "probes": probes})), write
+from ..analysis.bifurcations import QUALITIES
+from ._options import boundary_from_cli, boundary_options, param_options, params_from_cli
+from ._output import emit_json, emit_table, write_json
 
 
 @click.command("bifurcations")
 @param_options
-@boundary_options
+@boundary_options(anchor=False)
 @click.option("--torque-range", default=None, metavar="LO:HI[:STEP]",
               help="torques of the coarse M_c2 scan [pN·µm] (default quick 3:5.5:0.5, full 2.5:5.5:0.25)")
 @click.option("--t-end", type=float, default=None,
@@ -51,20 +40,26 @@ def bifurcations(torque_range, t_end, quality, tol, hysteresis, confirm_mc1, mc1
     """
     import os
 
+    from ..analysis.bifurcations import bifurcations as find
+
     boundary = boundary_from_cli(kwargs)
     params = params_from_cli(kwargs)
     head = {"quality": quality, "sphere_radius": boundary.sphere_radius}
+    partial = None
     if out:
         from ..io import check_writable
 
         check_writable(out)
-    partial, write = _writer(out, head) if out else (None, None)
+
+        def partial(probes):  # the partial result, after every finished probe
+            write_json(out, {**head, "complete": False, "probes": probes})
+
     res = find(params, boundary, quality=quality, torque_range=torque_range, t_end=t_end, tol=tol,
                hysteresis=hysteresis, mc2=not mc1_only, confirm_mc1=confirm_mc1,
                workers=workers if workers is not None else (os.cpu_count() or 1),
                progress=not as_json and sys.stderr.isatty(), on_probe=partial)
-    if write is not None:
-        write({**res, "complete": True})
+    if out:
+        write_json(out, {**res, "complete": True})
     if as_json:
         emit_json(res)
         return
@@ -75,6 +70,3 @@ def bifurcations(torque_range, t_end, quality, tol, hysteresis, confirm_mc1, mc1
     for p in probes:
         click.echo(f"  {p['torque']:8.4f}  {p['regime']:<12} {p.get('sigma_over_sigma0', float('nan')):6.3f}"
                    f"  {p.get('thrust', float('nan')):8.4f}  {p['direction']}")
-
-
-COMMANDS = [bifurcations]

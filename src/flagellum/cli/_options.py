@@ -1,0 +1,180 @@
+"""Flags shared by several commands, and the builders that turn them into validated
+:class:`~flagellum.params.Params`, :class:`~flagellum.motor.Motor`,
+:class:`~flagellum.motor.Boundary` and :class:`~flagellum.simulator.SolverOptions`.
+
+Each builder pops its flags from the keyword arguments of a command. Also the check of a
+trajectory file argument.
+"""
+
+from __future__ import annotations
+
+from dataclasses import fields
+from pathlib import Path
+
+import click
+
+from ..errors import ParameterError
+from ..motor import Boundary, Motor
+from ..params import Filament, Fluid, Params
+
+PARAM_HELP = {
+    "kappa0": "spontaneous curvature κ0 [1/µm]",
+    "tau0": "spontaneous torsion |τ0| [1/µm]",
+    "handedness": "helix handedness",
+    "bend_rigidity": "bending rigidity A [pN·µm²]",
+    "twist_rigidity": "torsional rigidity C [pN·µm²]",
+    "stretch_modulus": "stretching modulus K [pN]",
+    "length": "contour length L [µm]",
+    "segment_length": "bond length h [µm]",
+    "viscosity": "viscosity η [pN·s/µm²]",
+    "filament_radius": "filament radius r [µm]",
+    "kT": "thermal energy kT [pN·µm]",
+    "gamma_par": "override γ∥ [pN·s/µm²]",
+    "gamma_perp": "override γ⊥ [pN·s/µm²]",
+    "gamma_rot": "override γR [pN·s]",
+}
+_PARAM_NAMES = [f.name for k in (Filament, Fluid) for f in fields(k)] + [
+    "gamma_par", "gamma_perp", "gamma_rot"]
+
+
+def _add(func, opts):
+    for opt in reversed(opts):
+        func = opt(func)
+    return func
+
+
+# -- model parameters ---------------------------------------------------------------------
+
+def param_options(func):
+    """Add one flag per model parameter (same names as the TOML keys) plus ``--config``."""
+    opts = [
+        click.option("--config", type=click.Path(dir_okay=False), default=None,
+                     help="TOML file with [filament], [fluid], [friction] tables"),
+        click.option("--friction", type=click.Choice(["paper", "lighthill", "custom"]),
+                     default=None, help="friction coefficients: paper's rounded values, "
+                                        "Lighthill's formulas, or custom γ's"),
+    ]
+    for name in _PARAM_NAMES:
+        flag = "--" + name.replace("_", "-")
+        if name == "handedness":
+            opts.append(click.option(flag, type=click.Choice(["right", "left"]), default=None,
+                                     help=PARAM_HELP[name]))
+        else:
+            opts.append(click.option(flag, name, type=float, default=None, help=PARAM_HELP[name]))
+    return _add(func, opts)
+
+
+def params_from_cli(kwargs: dict) -> Params:
+    """Pop the parameter flags from ``kwargs`` and build validated :class:`Params`."""
+    config = kwargs.pop("config", None)
+    base = Params.load_toml(config) if config else Params()
+    flat = {name: kwargs.pop(name, None) for name in _PARAM_NAMES + ["friction"]}
+    return Params.from_flat(flat, base=base)
+
+
+# -- motor --------------------------------------------------------------------------------
+
+def motor_options(func):
+    """``--torque`` and ``--ramp-time``."""
+    return _add(func, [
+        click.option("--torque", type=float, default=1.0, show_default=True,
+                     help="motor torque M [pN·µm] (> 0 pushes)"),
+        click.option("--ramp-time", type=float, default=0.0, show_default=True,
+                     help="ramp the torque on smoothly over this time [s]"),
+    ])
+
+
+def motor_from_cli(kwargs: dict) -> Motor:
+    """Pop the motor flags from ``kwargs`` and build a validated :class:`Motor`."""
+    return Motor(kwargs.pop("torque"), ramp_time=kwargs.pop("ramp_time"))
+
+
+# -- boundary -----------------------------------------------------------------------------
+
+def boundary_options(anchor: bool):
+    """``--sphere-radius``, ``--hook``, ``--hook-stiffness``, and with ``anchor`` also
+    ``--anchor`` (fixed, load sphere or free swimmer); without it the anchor is fixed, or a
+    load sphere when ``--sphere-radius`` is given."""
+    if anchor:
+        opts = [
+            click.option("--anchor", type=click.Choice(["fixed", "sphere", "free"]),
+                         default="fixed", show_default=True,
+                         help="first bead anchored, on a load sphere moving along z, or free "
+                              "(force- and torque-free swimmer with a body sphere)"),
+            click.option("--sphere-radius", type=float, default=None,
+                         help="load sphere / body radius a [µm] (free: default 0, the filament alone)"),
+            click.option("--hook", type=click.Choice(["free", "elastic", "clamped"]), default="free",
+                         show_default=True, help="hook: free joint (paper), elastic, clamped"),
+            click.option("--hook-stiffness", type=float, default=None, help="hook stiffness k [pN·µm]"),
+        ]
+    else:
+        opts = [
+            click.option("--sphere-radius", type=float, default=None,
+                         help="attach a load sphere of this radius a [µm] (default: fixed anchor)"),
+            click.option("--hook", type=click.Choice(["free", "elastic", "clamped"]), default="free",
+                         show_default=True, help="hook: free joint, elastic, or clamped along e_z"),
+            click.option("--hook-stiffness", type=float, default=None,
+                         help="hook bending stiffness k [pN·µm] (with --hook elastic)"),
+        ]
+    return lambda func: _add(func, opts)
+
+
+def boundary_from_cli(kwargs: dict) -> Boundary:
+    """Pop the boundary flags from ``kwargs`` and build a validated :class:`Boundary`.
+
+    ``--anchor`` and ``--hook`` at their defaults (fixed, free) leave the choice to
+    :meth:`Boundary.from_flags`: ``--sphere-radius`` then means a load sphere and
+    ``--hook-stiffness`` k > 0 an elastic hook.
+    """
+    anchor, hook = kwargs.pop("anchor", "fixed"), kwargs.pop("hook")
+    return Boundary.from_flags(anchor=None if anchor == "fixed" else anchor,
+                               sphere_radius=kwargs.pop("sphere_radius"),
+                               hook=None if hook == "free" else hook,
+                               hook_stiffness=kwargs.pop("hook_stiffness"))
+
+
+# -- solver -------------------------------------------------------------------------------
+
+def solver_options(func):
+    """``--method``, ``--rtol``, ``--dt``, ``--scheme``, ``--theta``, ``--frame``."""
+    return _add(func, [
+        click.option("--method", type=click.Choice(["cvode", "implicit"]), default=None,
+                     help="integrator (default: cvode, implicit for thermal runs)"),
+        click.option("--rtol", type=float, default=1e-6, show_default=True,
+                     help="relative tolerance (cvode)"),
+        click.option("--dt", type=float, default=5e-5, show_default=True,
+                     help="time step of the implicit scheme [s]"),
+        click.option("--scheme", type=click.Choice(["bdf2", "theta"]), default=None,
+                     help="fixed-step scheme (implicit method): bdf2 (default) or the θ-method"),
+        click.option("--theta", type=float, default=None,
+                     help="implicitness of the θ-method (implies --scheme theta): 1 implicit "
+                          "Euler (default), 0.5 trapezoidal"),
+        click.option("--frame", default="auto", show_default=True,
+                     help="computational frame: auto (co-rotating), lab, or a rotation rate [rad/s]"),
+    ])
+
+
+def solver_from_cli(kwargs: dict, thermal: bool):
+    """Pop the solver flags from ``kwargs`` and build validated ``SolverOptions`` (the
+    default method: implicit for thermal runs, else cvode; atol: the default of
+    ``SolverOptions`` for this rtol)."""
+    from ..simulator import SolverOptions
+
+    frame = kwargs.pop("frame")
+    try:
+        frame = float(frame)
+    except ValueError:
+        pass
+    method = kwargs.pop("method") or ("implicit" if thermal else "cvode")
+    return SolverOptions(method=method, rtol=kwargs.pop("rtol"), dt=kwargs.pop("dt"),
+                         theta=kwargs.pop("theta"), scheme=kwargs.pop("scheme"), frame=frame)
+
+
+# -- input files --------------------------------------------------------------------------
+
+def existing_file(path: str) -> Path:
+    """The trajectory file argument of ``render`` and ``export``, checked to exist."""
+    p = Path(path)
+    if not p.is_file():
+        raise ParameterError("file", path, "an existing flagellum HDF5 trajectory file")
+    return p

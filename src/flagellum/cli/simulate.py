@@ -1,0 +1,68 @@
+"""``flagellum simulate``: one run of the motor-driven filament."""
+
+from __future__ import annotations
+
+import math
+
+import click
+
+from ._options import (boundary_from_cli, boundary_options, motor_from_cli, motor_options,
+                       param_options, params_from_cli, solver_from_cli, solver_options)
+from ._output import emit_json, emit_table
+
+
+@click.command()
+@param_options
+@motor_options
+@boundary_options(anchor=True)
+@click.option("--time", "t_end", type=float, default=0.3, show_default=True, help="simulated time [s]")
+@click.option("--save-every", type=float, default=None, help="save interval [s] (default time/300)")
+@click.option("--average-from", type=float, default=None,
+              help="average observables from this time on [s] (default: last half)")
+@click.option("--thermal", is_flag=True, help="thermal noise at kT (also implied by --kT)")
+@click.option("--seed", type=int, default=0, show_default=True, help="random seed (thermal runs)")
+@solver_options
+@click.option("--output", "-o", type=click.Path(dir_okay=False), default=None, help="HDF5 trajectory file")
+@click.option("--checkpoint-every", type=float, default=None,
+              help="write records and a checkpoint every T simulated seconds (with --output)")
+@click.option("--resume", "resume_file", type=click.Path(dir_okay=False), default=None,
+              help="continue the run in this HDF5 file from its last checkpoint")
+@click.option("--json", "as_json", is_flag=True, help="print one JSON object (no progress bar)")
+def simulate(t_end, save_every, average_from, thermal, seed, output, checkpoint_every, resume_file,
+             as_json, **kwargs):
+    """Simulate the motor-driven filament and report time-averaged observables."""
+    from ..params import check_range
+    from ..simulator import Simulator
+
+    if average_from is not None:  # checked before the run, against the run's time if known
+        check_range("average_from", average_from, 0.0, math.inf if resume_file else t_end,
+                    lo_open=False)
+    if resume_file is not None:
+        sim, traj = Simulator.resume(resume_file, progress=False if as_json else None)
+        _report_run(sim, traj, average_from, resume_file, as_json)
+        return
+    thermal = thermal or kwargs.get("kT") is not None
+    params = params_from_cli(kwargs)
+    motor = motor_from_cli(kwargs)
+    boundary = boundary_from_cli(kwargs)
+    solver = solver_from_cli(kwargs, thermal)
+    sim = Simulator(params, motor, boundary, thermal=thermal, seed=seed, solver=solver)
+    traj = sim.run(t_end, save_every=save_every if save_every is not None else t_end / 300,
+                   output=output, progress=False if as_json else None,
+                   checkpoint_every=checkpoint_every)
+    _report_run(sim, traj, average_from, output, as_json)
+
+
+def _report_run(sim, traj, average_from, output, as_json):
+    out = {**traj.summary(average_from).to_dict(), "steps": sim.steps,
+           "wall_seconds": sim.wall_seconds, "torque": sim.motor.final_torque,
+           "segments": sim.params.filament.n_segments}
+    if sim.boundary.anchor == "free" and sim.boundary.sphere_radius:
+        out["body_rotation_rate"] = sim.boundary.body_rotation_rate(sim.motor.final_torque,
+                                                                    sim.params.fluid.viscosity)
+    if output:
+        out["output"] = str(output)
+    if as_json:
+        emit_json(out)
+    else:
+        emit_table(out, "flagellum simulate (µm, pN, s)")

@@ -221,6 +221,7 @@ class Simulator:
 
     # -- metadata ---------------------------------------------------------------------
     def metadata(self) -> dict:
+        """The attributes of an output file: parameters, settings, provenance."""
         return {"params_toml": self.params.to_toml(), "spec": json.dumps(self.spec()),
                 "motor": json.dumps(asdict(self.motor)), "boundary": json.dumps(asdict(self.boundary)),
                 "solver": json.dumps(asdict(self.solver)), "thermal": self.thermal, "seed": self.seed,
@@ -542,4 +543,4 @@ def _progress(total: int, enabled: bool):
 
 
 __all__ = ["CHART_LIMIT", "MAX_RECORDS", "MAX_STRAIN", "Simulator", "SolverOptions", "State",
-           "Trajectory", "run_first_success"]
+           "run_first_success"]

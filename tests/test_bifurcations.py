@@ -6,13 +6,12 @@ torque sweep of the paper's filament through the aligned, buckled and oscillatin
 import json
 import math
 
-import numpy as np
 import pytest
 from conftest import assert_one_line_error
 
 from flagellum.analysis import bifurcations as bif
 from flagellum.analysis.bifurcations import (RunConfig, bifurcations, bracket, continuation,
-                                             lab_state, refine, scan_torques, start_from)
+                                             refine, scan_torques)
 from flagellum.cli import run
 from flagellum.errors import ParameterError
 
@@ -164,25 +163,6 @@ def test_confirm_mc1():
 
 
 # -- continuation of a real run (tiny filament) -------------------------------------------
-def test_lab_state_continues_a_co_rotating_run():
-    from flagellum.motor import Motor
-    from flagellum.params import Params
-    from flagellum.simulator import Simulator, SolverOptions
-
-    p = Params.from_flat({"length": 2.0})
-    sim = Simulator(p, Motor(1.0), solver=SolverOptions(frame="auto"))
-    tr = sim.run(0.01, save_every=0.001, progress=False)
-    assert sim.frame_angle != 0.0
-    for frame in ("lab", "auto"):
-        new = Simulator(p, Motor(1.0), solver=SolverOptions(frame=frame))
-        start_from(new, lab_state(sim))
-        t2 = new.run(0.001, save_every=0.001, progress=False)
-        assert np.abs(t2.positions[0] - tr.positions[-1]).max() < 1e-12
-        assert abs(t2.thrust[0] - tr.thrust[-1]) < 1e-9 and abs(t2.energy[0] - tr.energy[-1]) < 1e-12
-    with pytest.raises(ParameterError):
-        start_from(sim, lab_state(sim))  # not a fresh simulator
-
-
 def test_run_config_probe_and_state():
     from flagellum.params import Params
 

@@ -284,16 +284,160 @@ def test_cvode_failure_prints_nothing_on_stdout(capsys):
     """scikit-sundae prints CVODE's error messages with print(); they go to stderr, so that
     ``--json`` results on stdout stay parseable, and the failure becomes a SimulationError."""
     from flagellum.errors import SimulationError
-    from flagellum.integrate.cvode import KL, KU, CvodeStepper
+    from flagellum.integrate.cvode import CvodeStepper
     from flagellum.rod.model import RodModel
 
     m = RodModel(SHORT, Motor(1.0))
-    st = CvodeStepper(m, 0.0, m.initial_state(), 1e-6, 1e-8)
-    st._solver = st._CVODE(st._rhs, jacfn=st._jac, linsolver="band", lband=KL, uband=KU,
-                           rtol=1e-6, atol=1e-8, max_num_steps=3)
-    st._solver.init_step(0.0, st.y)
+    st = CvodeStepper(m, 0.0, m.initial_state(), 1e-6, 1e-8, max_num_steps=3)
     with pytest.raises(SimulationError):
         st.advance(0.01)
     out = capsys.readouterr()
     assert out.out == ""
     assert "CVode" in out.err
+
+
+# -- public state access: from_state, state, lab_state ----------------------------------------
+def test_lab_state_continues_a_co_rotating_run():
+    """A fresh simulator (either frame) started from the lab-frame state of a co-rotating
+    run continues where it stopped: same lab positions, thrust and energy."""
+    p = Params.from_flat({"length": 2.0})
+    sim = Simulator(p, Motor(1.0), solver=SolverOptions(frame="auto"))
+    tr = sim.run(0.01, save_every=0.001, progress=False)
+    assert sim.frame_angle != 0.0
+    state = sim.lab_state()
+    assert state.frame_angle == 0.0
+    for frame in ("lab", "auto"):
+        new = Simulator.from_state(state, p, Motor(1.0), solver=SolverOptions(frame=frame))
+        assert new.t == 0.0 and new.frame_angle == 0.0
+        t2 = new.run(0.001, save_every=0.001, progress=False)
+        assert np.abs(t2.positions[0] - tr.positions[-1]).max() < 1e-12
+        assert abs(t2.thrust[0] - tr.thrust[-1]) < 1e-9 and abs(t2.energy[0] - tr.energy[-1]) < 1e-12
+
+
+def test_run_continued_from_lab_state_matches_the_uninterrupted_run():
+    p = Params.from_flat({"length": 2.0})
+    opts = SolverOptions(rtol=1e-10, atol=1e-12)
+    whole = Simulator(p, Motor(1.0), solver=opts).run(0.02, save_every=0.001, progress=False)
+    first = Simulator(p, Motor(1.0), solver=opts)
+    first.run(0.01, save_every=0.001, progress=False)
+    rest = Simulator.from_state(first.lab_state(), p, Motor(1.0), t=first.t, solver=opts)
+    tail = rest.run(0.02, save_every=0.001, progress=False)
+    assert np.allclose(tail.t, whole.t[10:], rtol=0, atol=1e-15)
+    assert np.abs(tail.positions - whole.positions[10:]).max() < 1e-7
+    assert np.abs(tail.thrust - whole.thrust[10:]).max() < 1e-7 * np.abs(whole.thrust).max()
+    # the computational-frame state with its frame angle and rate continues the same way
+    again = Simulator.from_state(first.state(), p, Motor(1.0), t=first.t,
+                                 omega_frame=first.model.omega_frame, solver=opts)
+    assert again.frame_angle == first.frame_angle
+    assert np.abs(again.run(0.02, save_every=0.001, progress=False).positions
+                  - whole.positions[10:]).max() < 1e-7
+
+
+def test_from_state_relative_equilibrium_stays_put():
+    """bench.steady_state: the relative equilibrium, started in its co-rotating frame at its
+    rate, is a fixed point there (the state hardly moves, the thrust is steady)."""
+    from flagellum.analysis.stability import relative_equilibrium
+    from flagellum.simulator import State
+
+    p = Params.from_flat({"length": 2.0})
+    eq = relative_equilibrium(p, 0.5)
+    sim = Simulator.from_state(State(eq.state, eq.charts), p, Motor(0.5), omega_frame=eq.omega)
+    assert sim.model.omega_frame == eq.omega
+    tr = sim.run(0.005, save_every=0.001, progress=False)
+    assert np.abs(sim.y - eq.state).max() < 1e-5
+    assert np.ptp(tr.thrust) < 1e-6
+
+
+def test_from_state_rejects_a_state_that_does_not_fit():
+    from flagellum.simulator import State
+
+    p = Params.from_flat({"length": 2.0})
+    other = Simulator(Params.from_flat({"length": 3.0}), Motor(1.0)).lab_state()
+    good = Simulator(p, Motor(1.0)).lab_state()
+    bad_y = good.y.copy()
+    bad_y[5] = np.nan
+    for state in (other, State(good.y[:-1], good.charts), State(good.y, good.charts[:2]),
+                  State(bad_y, good.charts), State(good.y, good.charts, math.inf), "y"):
+        with pytest.raises(ParameterError, match="state|frame_angle"):
+            Simulator.from_state(state, p, Motor(1.0))
+    with pytest.raises(ParameterError, match="omega_frame"):
+        Simulator.from_state(good, p, Motor(1.0), omega_frame=math.nan)
+    with pytest.raises(ParameterError, match="invalid t"):
+        Simulator.from_state(good, p, Motor(1.0), t=-1.0)
+
+
+# -- Trajectory -------------------------------------------------------------------------------
+def test_trajectory_fields_are_documented_attributes():
+    import dataclasses
+
+    from flagellum.io import RECORD_FIELDS
+    from flagellum.trajectory import Trajectory
+
+    sim = Simulator(SHORT, Motor(0.3))
+    tr = sim.run(0.002, save_every=1e-3, progress=False)
+    assert isinstance(tr, Trajectory)
+    fields = [f.name for f in dataclasses.fields(Trajectory)]
+    assert fields == [*RECORD_FIELDS, "meta"]
+    n = sim.model.n
+    for name, (shape, _) in RECORD_FIELDS.items():
+        assert name in vars(tr) and f"{name} :" in Trajectory.__doc__  # documented
+        assert getattr(tr, name).shape == (3,) + shape(n)
+    assert tr.y is tr.positions and set(tr.records) == set(RECORD_FIELDS)
+    assert tr.meta["segments"] == n and len(tr) == 3
+    assert repr(tr) == f"Trajectory(3 records, t = 0 … 0.002 s, {n} segments)"
+    with pytest.raises(AttributeError):
+        tr.no_such_field
+    s = tr.summary()
+    assert s.thrust_mean == pytest.approx(np.mean(tr.thrust), rel=0.5)
+
+
+# -- the stepper interface ---------------------------------------------------------------------
+def test_both_steppers_satisfy_the_stepper_protocol():
+    from flagellum.integrate.base import STEPPERS, Stepper, make_stepper
+    from flagellum.rod.model import RodModel
+
+    m = RodModel(SHORT, Motor(0.3))
+    y0 = m.initial_state()
+    cv = make_stepper("cvode", m, 0.0, y0, SolverOptions())
+    im = make_stepper("implicit", m, 0.0, y0, SolverOptions(method="implicit", dt=1e-5), kT=0.0041, seed=4)
+    assert set(STEPPERS) == {"cvode", "implicit"}
+    assert type(cv) is STEPPERS["cvode"] and type(im) is STEPPERS["implicit"]
+    assert isinstance(cv, Stepper) and isinstance(im, Stepper)
+    assert not isinstance(object(), Stepper)
+    assert cv.fixed_step is None and cv.rng_state is None
+    assert im.fixed_step == 1e-5 and json.loads(json.dumps(im.rng_state)) == im.rng_state
+    y = im.advance(1e-4)
+    assert y is im.y and im.t == 1e-4 and im.n_steps == 10
+    im.reset(0.0, y0)
+    assert im.t == 0.0 and np.array_equal(im.y, y0)
+    with pytest.raises(ParameterError, match="method"):
+        make_stepper("euler", m, 0.0, y0, SolverOptions())
+
+
+def test_a_registered_stepper_is_used(monkeypatch):
+    from flagellum.integrate import base
+    from flagellum.integrate.cvode import CvodeStepper
+
+    calls = []
+
+    class Recording(CvodeStepper):
+        def advance(self, t):
+            calls.append(t)
+            return super().advance(t)
+
+    monkeypatch.setitem(base.STEPPERS, "recording", Recording)
+    ref = Simulator(SHORT, Motor(0.3)).run(0.002, save_every=1e-3, progress=False)
+    sim = Simulator(SHORT, Motor(0.3), solver=SolverOptions(method="recording"))
+    tr = sim.run(0.002, save_every=1e-3, progress=False)
+    assert calls and calls[-1] == 0.002 and sim.steps > 0
+    assert np.array_equal(tr.positions, ref.positions)
+    with pytest.raises(ParameterError, match="method"):
+        SolverOptions(method="nonesuch")
+
+
+def test_atol_defaults_to_a_fixed_fraction_of_rtol():
+    from flagellum.integrate import ATOL_PER_RTOL
+
+    assert SolverOptions().atol == 1e-8 == SolverOptions().rtol * ATOL_PER_RTOL
+    assert SolverOptions(rtol=1e-9).atol == 1e-9 * ATOL_PER_RTOL
+    assert SolverOptions(rtol=1e-9, atol=1e-3).atol == 1e-3

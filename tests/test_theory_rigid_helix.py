@@ -54,7 +54,8 @@ def _stiff_filament_vs_rigid(stiffness: float, t_end: float = 0.05) -> float:
     from flagellum.helix import DiscreteHelix, discrete_helix
     from flagellum.hydro import rft
     from flagellum.motor import Motor
-    from flagellum.simulator import Simulator, SolverOptions
+    from flagellum.rod.model import RodModel
+    from flagellum.simulator import Simulator, SolverOptions, State
 
     p = Params(Filament(bend_rigidity=3.5 * stiffness, twist_rigidity=3.5 * stiffness))
     dh = discrete_helix(p.filament)
@@ -62,8 +63,10 @@ def _stiff_filament_vs_rigid(stiffness: float, t_end: float = 0.05) -> float:
     dh = DiscreteHelix(dh.positions @ R0.T, np.einsum("ij,njk->nik", R0, dh.frames),
                        R0 @ dh.axis_point, R0 @ dh.axis_direction, dh.radius, dh.pitch,
                        dh.segment_length)
-    sim = Simulator(p, Motor(1.0), solver=SolverOptions(frame="lab", rtol=1e-8, atol=1e-10))
-    sim.y = sim.model.initial_state(dh)
+    start = RodModel(p)
+    y0 = start.initial_state(dh)  # sets the charts to the helix' frames
+    sim = Simulator.from_state(State(y0, start.charts()), p, Motor(1.0),
+                               solver=SolverOptions(frame="lab", rtol=1e-8, atol=1e-10))
     tr = sim.run(t_end, save_every=t_end / 50)
     B = rft.resistance_matrix(*rft.bead_nodes(dh), *p.gammas, origin=dh.positions[0])[3:, 3:]
     rig = rotate(B, [0.0, 0.0, 1.0], t_end, n_out=51)

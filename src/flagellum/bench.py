@@ -19,7 +19,7 @@ import numpy as np
 
 from .motor import Motor
 from .params import Filament, Params
-from .simulator import Simulator, SolverOptions
+from .simulator import Simulator, SolverOptions, State
 
 
 def _timed(sim: Simulator, t_end: float, save_every: float):
@@ -33,11 +33,8 @@ def steady_state(torque: float = 1.0, params: Params | None = None, warmup: floa
     from .analysis.stability import relative_equilibrium
 
     params = params or Params()
-    sim = Simulator(params, Motor(torque))
     eq = relative_equilibrium(params, torque)
-    sim.model.set_omega_frame(eq.omega)
-    sim.model.set_charts(*eq.charts)
-    sim.y = np.array(eq.state, float)
+    sim = Simulator.from_state(State(eq.state, eq.charts), params, Motor(torque), omega_frame=eq.omega)
     sim.run(warmup, save_every=warmup / 50, progress=False)
     return sim
 
@@ -46,13 +43,10 @@ def bench(window: float = 0.2, quick: bool = False) -> dict:
     """Run all benchmarks; returns the JSON-ready dict."""
     out: dict = {"segments": 50, "torque": 1.0, "window": window}
     sim = steady_state(1.0)
-    t0, y0, frame0 = sim.t, sim.y.copy(), sim.model.omega_frame
-    charts = sim.model.charts()
+    t0, start, frame0 = sim.t, sim.state(), sim.model.omega_frame
     tr, wall, steps = _timed(sim, t0 + window, window / 100)
-    ref = Simulator(Params(), Motor(1.0), solver=SolverOptions(rtol=1e-10, atol=1e-12))
-    ref.t, ref.y = t0, y0.copy()
-    ref.model.set_omega_frame(frame0)
-    ref.model.set_charts(*charts)
+    ref = Simulator.from_state(start, Params(), Motor(1.0), t=t0, omega_frame=frame0,
+                               solver=SolverOptions(rtol=1e-10, atol=1e-12))
     ref_tr = ref.run(t0 + window, save_every=window / 100, progress=False)
     out.update(wall_per_simulated_second=wall / window, steps=steps,
                thrust=float(np.mean(tr.thrust)),

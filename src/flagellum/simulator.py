@@ -1,10 +1,16 @@
 """The simulator: one object built from the parameter dataclasses, ``run(t_end, save_every)``.
 
 Deterministic runs use CVODE (adaptive BDF with error control, :mod:`.integrate.cvode`);
-thermal runs the drift-implicit Euler scheme of :mod:`.integrate.brownian`. Both work in a
-frame co-rotating with the motor (``frame="auto"``): the aligned steadily rotating
-filament is then a fixed point, which the error-controlled integrator crosses in large
-steps. Outputs are always reported in the lab frame.
+thermal runs the drift-implicit Euler scheme of :mod:`.integrate.brownian`; both are
+:class:`~flagellum.integrate.base.Stepper` objects, built from :data:`~flagellum.integrate.base.STEPPERS`.
+Both work in a frame co-rotating with the motor (``frame="auto"``): the aligned steadily
+rotating filament is then a fixed point, which the error-controlled integrator crosses in
+large steps. Outputs are always reported in the lab frame.
+
+This module holds the integration loop: run planning, advancing between records with chart
+checks, the blow-up check, recording, and the frame adaptation (it changes the right-hand
+side, so it restarts the stepper like a re-centred chart). The records and their files
+(parts, checkpoints) are :mod:`flagellum.trajectory`.
 
 Example
 -------
@@ -19,20 +25,21 @@ import json
 import math
 import sys
 import time
-from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
 from . import io
-from .analysis.observables import Summary, summarize
 from .errors import ParameterError, SimulationError
-from .helix import DiscreteHelix, discrete_helix, rotation_between
-from .hydro import rft
+from .helix import Helix
+from .hydro.rft import pinned_helix, pinned_omega_per_torque
+from .integrate import ATOL_PER_RTOL
+from .integrate.base import STEPPERS, make_stepper
 from .motor import Boundary, Motor
-from .params import Params, check_choice, check_range, positive
-from .rod.model import RodModel, angles, positions
+from .params import Params, check_choice, check_range, check_real, positive
+from .rod.model import RodModel, angles, positions, state_size
+from .trajectory import COMPLETE, OutputError, RunFiles, Trajectory
 
 MAX_STRAIN = 0.5  #: a bond stretched or compressed by more than this is a blow-up
 MAX_RECORDS = 10**6  #: records per run (memory of the returned trajectory)
@@ -44,8 +51,10 @@ class SolverOptions:
     """Numerical settings.
 
     method : ``"cvode"`` (deterministic, error-controlled) or ``"implicit"`` (fixed-step
-        drift-implicit scheme; the only choice with thermal noise).
-    rtol, atol : CVODE tolerances (positions in µm, angles in rad).
+        drift-implicit scheme; the only choice with thermal noise); any key of
+        :data:`flagellum.integrate.base.STEPPERS`.
+    rtol, atol : CVODE tolerances (positions in µm, angles in rad); ``atol=None`` means
+        ``rtol * ATOL_PER_RTOL`` (:data:`flagellum.integrate.ATOL_PER_RTOL`).
     dt : step of the fixed-step scheme [s].
     scheme : fixed-step scheme: ``"bdf2"`` (default: second order, L-stable, damps the stiff
         bond-scale modes without damping the slow buckling mode) or ``"theta"`` (the default
@@ -61,20 +70,22 @@ class SolverOptions:
 
     method: str = "cvode"
     rtol: float = 1e-6
-    atol: float = 1e-8
+    atol: float | None = None
     dt: float = 5e-5
     theta: float | None = None
     frame: str | float = "auto"
     scheme: str | None = None
 
     def __post_init__(self):
-        check_choice("method", self.method, ("cvode", "implicit"))
+        check_choice("method", self.method, tuple(STEPPERS))
         if self.scheme is None:  # giving θ selects the θ-method
             object.__setattr__(self, "scheme", "bdf2" if self.theta is None else "theta")
         check_choice("scheme", self.scheme, ("bdf2", "theta"))
         if self.theta is None:
             object.__setattr__(self, "theta", 1.0)
         object.__setattr__(self, "rtol", check_range("rtol", self.rtol, 1e-14, 0.1))
+        if self.atol is None:
+            object.__setattr__(self, "atol", self.rtol * ATOL_PER_RTOL)
         object.__setattr__(self, "atol", check_range("atol", self.atol, 0.0, 1.0))
         object.__setattr__(self, "dt", check_range("dt", self.dt, 1e-9, 1e-2, lo_open=False))
         object.__setattr__(self, "theta", check_range("theta", self.theta, 0.5, 1.0, lo_open=False))
@@ -84,55 +95,29 @@ class SolverOptions:
             check_choice("frame", self.frame, ("auto", "lab"))
 
 
-def pinned_helix(params: Params, boundary: Boundary | None = None) -> DiscreteHelix:
-    """The discrete helix turned so that its pinned rigid-body rotation axis is −e_z.
+@dataclass(frozen=True, eq=False)
+class State:
+    """A filament state to start a simulator from (:meth:`Simulator.from_state`).
 
-    A rigid helix pinned at bead 0 rotates steadily only about the least-resistance
-    eigen-axis of its rotational resistance matrix (:func:`flagellum.hydro.rft.pinned_rotation`);
-    starting there avoids a long precessing transient.
+    y : the rod model's state vector (hook tangent u0, then (x, y, z, θ) per bead;
+        :func:`flagellum.rod.model.state_size`), in a frame turned by ``frame_angle``
+        about e_z from the lab.
+    charts : (ref_u (N+1, 3), ref_e (N+1, 3), ref_m (N+1,)), the charts of the rod model
+        (:meth:`flagellum.rod.model.RodModel.charts`) in the same frame; the material
+        angles in y are measured against them.
+    frame_angle : [rad]; 0 when y and the charts are in the lab frame.
     """
-    dh = discrete_helix(params.filament)
-    if boundary is not None and boundary.hook == "clamped":
-        return dh
-    gp, gn, gr = params.gammas
-    pin = rft.pinned_rotation(rft.resistance_matrix(*rft.bead_nodes(dh), gp, gn, gr), dh.axis_direction)
-    rot = rotation_between(pin.axis, np.array([0.0, 0.0, -1.0]))
-    return DiscreteHelix(dh.positions @ rot.T, np.einsum("ij,njk->nik", rot, dh.frames),
-                         rot @ dh.axis_point, rot @ dh.axis_direction, dh.radius, dh.pitch,
-                         dh.segment_length)
+
+    y: np.ndarray
+    charts: tuple
+    frame_angle: float = 0.0
 
 
-def pinned_omega_per_torque(params: Params) -> float:
-    dh = discrete_helix(params.filament)
-    gp, gn, gr = params.gammas
-    return rft.pinned_rotation(rft.resistance_matrix(*rft.bead_nodes(dh), gp, gn, gr),
-                               dh.axis_direction).omega_per_torque
-
-
-class Trajectory:
-    """Saved records of a run (lab frame) with the run's parameters."""
-
-    def __init__(self, records: dict, meta: dict):
-        self.records = {k: np.asarray(v) for k, v in records.items()}
-        self.meta = meta
-
-    def __getattr__(self, name):
-        try:
-            return self.__dict__["records"][name]
-        except KeyError:
-            raise AttributeError(name) from None
-
-    @property
-    def y(self):
-        """Bead positions, shape (n_t, n+1, 3) (scipy-like alias of ``positions``)."""
-        return self.records["positions"]
-
-    def summary(self, t_from: float | None = None) -> Summary:
-        """Time averages (:func:`flagellum.analysis.observables.summarize`). ω is the slope of
-        the unwrapped hook angle: the rotation rate about the local helix axis at the motor
-        (paper §3.1.2), also when the hook tilts (buckled: ω·e_z is smaller by cos β)."""
-        return summarize(self.t, self.thrust, self.motor_angle, self.positions, self.energy,
-                         self.meta.get("helix_radius", 0.2), t_from)
+def _rotate_z(v: np.ndarray, angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    out = np.array(v, float, copy=True)
+    out[..., 0], out[..., 1] = c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]
+    return out
 
 
 class Simulator:
@@ -146,6 +131,11 @@ class Simulator:
     thermal : add thermal noise at ``params.fluid.kT`` (needs ``method="implicit"``).
     seed : seed of the random stream (thermal runs).
     solver : :class:`SolverOptions`.
+
+    The run starts at t = 0 from the stress-free helix turned onto its pinned rotation axis
+    (:func:`flagellum.hydro.rft.pinned_helix`); :meth:`from_state` starts from a given state.
+    ``t``, ``y`` (computational frame) and ``frame_angle`` are the current time, state and
+    angle of the computational frame; :meth:`state` and :meth:`lab_state` return them.
     """
 
     def __init__(self, params: Params | None = None, motor: Motor | None = None,
@@ -177,28 +167,86 @@ class Simulator:
         self.wall_seconds = 0.0
         self.steps = 0
 
+    # -- state ------------------------------------------------------------------------
+    @classmethod
+    def from_state(cls, state: State, params: Params | None = None, motor: Motor | None = None,
+                   boundary: Boundary | None = None, *, t: float = 0.0,
+                   omega_frame: float | None = None, thermal: bool = False,
+                   seed: int | None = None, solver: SolverOptions | None = None) -> "Simulator":
+        """A simulator (arguments as for :class:`Simulator`) that starts at time ``t`` [s]
+        from ``state``: e.g. a relative equilibrium in its co-rotating frame
+        (:func:`flagellum.analysis.stability.relative_equilibrium`, with ``omega_frame``
+        its rate), or the :meth:`lab_state` of another run.
+
+        ``omega_frame`` [rad/s]: the initial rate of the computational frame (``frame="auto"``
+        adapts it from there); None: the one ``solver.frame`` chooses. The motor angle is
+        unwrapped afresh from the state's hook frame, and a thermal run's random stream
+        starts from ``seed``. A state that does not fit the filament raises
+        :class:`~flagellum.errors.ParameterError`.
+        """
+        sim = cls(params, motor, boundary, thermal=thermal, seed=seed, solver=solver)
+        sim._place(state, t, omega_frame)
+        return sim
+
+    def _place(self, state: State, t: float, omega_frame: float | None) -> None:
+        n1 = self.model.n + 1
+        want = ((state_size(self.model.n),), (n1, 3), (n1, 3), (n1,))
+        try:
+            arrays = [np.array(state.y, float), *(np.array(c, float) for c in state.charts)]
+        except (AttributeError, TypeError, ValueError):
+            raise ParameterError("state", type(state).__name__, "a State (y, charts)") from None
+        got = tuple(a.shape for a in arrays)
+        if got != want or not all(np.all(np.isfinite(a)) for a in arrays):
+            raise ParameterError("state", f"shapes {got}", f"finite arrays (y, ref_u, ref_e, ref_m) "
+                                 f"of shapes {want} for {self.model.n} segments")
+        self.t = check_range("t", t, 0.0, 1e6, lo_open=False)
+        self.frame_angle = check_real("frame_angle", state.frame_angle)
+        if omega_frame is not None:
+            self.model.set_omega_frame(check_range("omega_frame", omega_frame, -1e6, 1e6, lo_open=False))
+        self.y = arrays[0]
+        self.model.set_charts(*arrays[1:])
+
+    def state(self) -> State:
+        """The current state in the computational frame (a copy)."""
+        return State(self.y.copy(), self.model.charts(), self.frame_angle)
+
+    def lab_state(self) -> State:
+        """The current state turned into the lab frame (``frame_angle`` 0)."""
+        y, (ref_u, ref_e, ref_m) = self.y.copy(), self.model.charts()
+        a = self.frame_angle
+        y[:3] = _rotate_z(y[:3], a)
+        body = y[3:].reshape(-1, 4)
+        body[:, :3] = _rotate_z(body[:, :3], a)
+        return State(y, (_rotate_z(ref_u, a), _rotate_z(ref_e, a), ref_m))
+
     # -- metadata ---------------------------------------------------------------------
     def metadata(self) -> dict:
-        from .helix import Helix
-
+        """The attributes of an output file: parameters, settings, provenance."""
         return {"params_toml": self.params.to_toml(), "spec": json.dumps(self.spec()),
                 "motor": json.dumps(asdict(self.motor)), "boundary": json.dumps(asdict(self.boundary)),
                 "solver": json.dumps(asdict(self.solver)), "thermal": self.thermal, "seed": self.seed,
                 "helix_radius": Helix.from_filament(self.params.filament).radius,
                 "segments": self.model.n, **io.provenance()}
 
+    def spec(self) -> dict:
+        """Everything needed to rebuild this simulator (JSON-serializable)."""
+        return {"params": self.params.to_dict(), "motor": asdict(self.motor),
+                "boundary": asdict(self.boundary), "solver": asdict(self.solver),
+                "thermal": self.thermal, "seed": self.seed}
+
+    @classmethod
+    def from_spec(cls, spec: dict) -> "Simulator":
+        motor = dict(spec["motor"])
+        if motor.get("schedule") is not None:
+            motor["schedule"] = tuple(tuple(x) for x in motor["schedule"])
+        return cls(Params.from_dict(spec["params"]), Motor(**motor), Boundary(**spec["boundary"]),
+                   thermal=spec["thermal"], seed=spec["seed"], solver=SolverOptions(**spec["solver"]))
+
     # -- stepping ---------------------------------------------------------------------
     def _stepper(self):
-        if self.solver.method == "cvode":
-            from .integrate.cvode import CvodeStepper
-
-            return CvodeStepper(self.model, self.t, self.y, self.solver.rtol, self.solver.atol)
-        from .integrate.brownian import ImplicitStepper
-
-        return ImplicitStepper(self.model, self.t, self.y, self.solver.dt,
-                               kT=self.params.fluid.kT if self.thermal else 0.0,
-                               seed=self.seed, rng_state=self._rng_state,
-                               theta=self.solver.theta if self.solver.scheme == "theta" else None)
+        return make_stepper(self.solver.method, self.model, self.t, self.y, self.solver,
+                            kT=self.params.fluid.kT if self.thermal else 0.0, seed=self.seed,
+                            rng_state=self._rng_state)
 
     def _record(self, buf: dict) -> None:
         m, y, t = self.model, self.y, self.t
@@ -222,7 +270,7 @@ class Simulator:
         if self._last_motor is not None:  # measured motor speed, capped: transients spike it
             rate = max(rate, min(abs(self._last_motor[3]), 3.0 * self._omega_scale))
         chunk = 0.5 / rate
-        step = getattr(stepper, "dt", None)
+        step = stepper.fixed_step
         if step:  # whole fixed steps: a shortened step would restart BDF2 with an Euler step
             chunk = step * max(1, math.floor(chunk / step))
         y = stepper.y
@@ -247,8 +295,8 @@ class Simulator:
         one turn per record away); records may be several turns apart as long as the rate
         changes by less than π per interval.
         """
-        T, E1, E2 = self.model._ws[0], self.model._ws[1], self.model._ws[2]
-        d = np.stack([E1[0], -E2[0], -T[0]], axis=1)  # D diag(1, −1, −1), at the last rhs call
+        fr = self.model.frames()  # at the last rhs call
+        d = np.stack([fr.e1[0], -fr.e2[0], -fr.tangents[0]], axis=1)  # D diag(1, −1, −1)
         raw = 2.0 * math.atan2(d[1, 0] - d[0, 1], 1.0 + np.trace(d)) + self.frame_angle
         last = self._last_motor
         if last is None:
@@ -274,6 +322,27 @@ class Simulator:
             raise SimulationError(f"a bond strained by {strain:.0%} at t = {self.t:.6g} s "
                                   f"(limit {MAX_STRAIN:.0%}): the filament blew up")
 
+    def _adapt_frame(self, buf) -> bool:
+        """Co-rotating frame (frame='auto'): follow the motor speed once it has settled; in
+        unsteady states (buckled, oscillating) follow its mean roughly (within 25 %), which
+        keeps the integrator restarts rare while the filament stays slow in that frame."""
+        if self.solver.frame != "auto" or len(buf["motor_angle"]) < 5:
+            return False
+        t = np.array(buf["t"][-5:])
+        key = "motor_angle" if self.thermal else "motor_speed"
+        vals = np.array(buf[key][-5:])
+        rates = np.diff(vals) / np.diff(t) if self.thermal else vals
+        target = float(np.clip(np.median(rates), -3 * self._omega_scale, 3 * self._omega_scale))
+        spread = float(np.ptp(rates))  # transients spike the instantaneous speed: median, capped
+        cur = self.model.omega_frame
+        steady = spread < 0.02 * abs(target) + 1.0
+        tol = 0.01 * abs(cur) + 1.0 if steady else 0.25 * abs(target) + 1.0
+        if abs(target - cur) > tol:
+            self.model.set_omega_frame(target)
+            return True
+        return False
+
+    # -- running ----------------------------------------------------------------------
     def run(self, t_end: float, save_every: float | None = None, output: str | Path | None = None,
             progress: bool | None = None, checkpoint_every: float | None = None) -> Trajectory:
         """Integrate from the current time to ``t_end`` [s], saving every ``save_every`` s.
@@ -283,10 +352,18 @@ class Simulator:
         ``<output>.parts/`` together with an atomically replaced checkpoint ``<output>.ckpt``,
         so memory stays bounded and a run killed at any instant can be continued with
         :meth:`resume`; at the end the parts are gathered into ``output`` (see
-        :mod:`flagellum.io`) and the returned :class:`Trajectory` holds the whole run read
-        back from it.
+        :mod:`flagellum.trajectory`) and the returned :class:`Trajectory` holds the whole run
+        read back from it.
         A blow-up raises :class:`SimulationError` after saving the last good state.
         """
+        plan = self._plan(t_end, save_every, checkpoint_every)
+        files = None
+        if output is not None:
+            files = RunFiles.create(output, self.model.n, {**self.metadata(), "plan": json.dumps(plan)},
+                                    len(self._times(plan)) + 1)
+        return self._loop(plan, 0, files, progress)
+
+    def _plan(self, t_end, save_every, checkpoint_every) -> dict:
         t_end = check_range("time", t_end, self.t, 1e6)
         save_every = positive("save_every", save_every if save_every is not None
                               else (t_end - self.t) / 200, t_end - self.t)
@@ -296,22 +373,7 @@ class Simulator:
         if checkpoint_every is not None:
             checkpoint_every = positive("checkpoint_every", checkpoint_every, 1e6)
         flush_every = max(1, int(round(checkpoint_every / save_every))) if checkpoint_every else 1000
-        plan = {"t0": self.t, "t_end": t_end, "save_every": save_every, "flush_every": flush_every}
-        if output is not None:
-            output = Path(output)
-            n_records = len(self._times(plan)) + 1
-            io.check_writable(output, 2 * n_records * _record_bytes(self.model.n))  # parts + file
-            self._start_output(output, plan)
-        return self._loop(plan, 0, output, progress)
-
-    def _start_output(self, output: Path, plan: dict) -> None:
-        """Remove what an earlier run into ``output`` left, create the (empty) main file."""
-        checkpoint_path(output).unlink(missing_ok=True)
-        io.drop_parts(output)
-        with _writing(output):
-            io.create_trajectory(output, self.model.n, {**self.metadata(), "status": io.RUNNING,
-                                                        "plan": json.dumps(plan)})
-        self._n_parts = 0
+        return {"t0": self.t, "t_end": t_end, "save_every": save_every, "flush_every": flush_every}
 
     @staticmethod
     def _times(plan) -> np.ndarray:
@@ -322,13 +384,14 @@ class Simulator:
             times = np.append(times, t_end)
         return times
 
-    def _loop(self, plan: dict, start: int, output: Path | None, progress) -> Trajectory:
+    def _loop(self, plan: dict, start: int, files: RunFiles | None, progress) -> Trajectory:
+        """Records ``start`` … of ``plan``; into ``files`` (parts, checkpoints), else kept in memory."""
         times = self._times(plan)
         flush_every = plan["flush_every"]
         if progress is None:
             progress = sys.stderr.isatty()
         buf = {k: [] for k in io.RECORD_FIELDS}
-        all_buf = {k: [] for k in io.RECORD_FIELDS} if output is None else None
+        kept = {k: [] for k in io.RECORD_FIELDS} if files is None else None
         if start == 0:
             self._record(buf)
         stepper = self._stepper()
@@ -351,9 +414,9 @@ class Simulator:
                 if bar is not None:
                     bar.update(1)
                 if (i + 1) % flush_every == 0 and i + 1 < len(times):
-                    self._flush(buf, all_buf, output, stepper)
-                    if output is not None:
-                        self._checkpoint(output, plan, i + 1, wall0)
+                    self._flush(buf, kept, files, stepper)
+                    if files is not None:
+                        self._checkpoint(files, plan, i + 1, wall0)
                     changed = True  # restart the integrator at checkpoints (resume = identical)
                 if changed:
                     stepper.reset(self.t, self.y)
@@ -361,59 +424,47 @@ class Simulator:
             raise  # the parts and the last checkpoint stay as they are
         except SimulationError as exc:
             self.t, self.y, self.frame_angle = good
-            if output is None:
+            if files is None:
                 raise
-            self._finish(output, buf, f"failed: {exc}")
-            raise SimulationError(f"{exc}; last good state (t = {self.t:.6g} s) saved to {output}")
+            files.finish(buf, self.y, f"failed: {exc}")
+            raise SimulationError(f"{exc}; last good state (t = {self.t:.6g} s) saved to {files.path}")
         except KeyboardInterrupt:
-            if output is not None:
-                self._finish(output, buf, "interrupted")
+            if files is not None:
+                files.finish(buf, self.y, "interrupted")
             raise
         finally:
             if bar is not None:
                 bar.close()
             self.wall_seconds += time.perf_counter() - wall0
-            self.steps += getattr(stepper, "n_steps", 0)
-        if output is not None:
-            self._finish(output, buf, "complete", wall_seconds=self.wall_seconds, steps=self.steps)
-            checkpoint_path(output).unlink(missing_ok=True)
-            io.drop_parts(output)
-            data = io.read_trajectory(output)
-            return Trajectory({k: data[k] for k in io.RECORD_FIELDS}, self.metadata())
-        self._flush(buf, all_buf, output, stepper)
-        return Trajectory({k: np.array(v) for k, v in all_buf.items()}, self.metadata())
+            self.steps += stepper.n_steps
+        if files is not None:
+            files.finish(buf, self.y, COMPLETE, wall_seconds=self.wall_seconds, steps=self.steps)
+            files.tidy()
+            return files.read(self.metadata())
+        self._flush(buf, kept, files, stepper)
+        return Trajectory.from_records(kept, self.metadata())
 
-    # -- checkpoints ----------------------------------------------------------------------
-    def _checkpoint(self, output: Path, plan: dict, n_done: int, wall0: float) -> None:
-        import h5py
+    def _flush(self, buf, kept, files, stepper):
+        if kept is not None:
+            for k, v in buf.items():
+                kept[k].extend(v)
+        elif files is not None:
+            files.write_part(buf)
+        for v in buf.values():
+            v.clear()
+        self._rng_state = stepper.rng_state
 
-        n_records = n_done + 1  # the initial record
-        with _writing(output), io.atomic_path(checkpoint_path(output)) as tmp:
-            with h5py.File(tmp, "w") as f:
-                f["y"] = self.y
-                f["ref_u"], f["ref_e"], f["ref_m"] = self.model.charts()
-                f.attrs.update({"t": self.t, "frame_angle": self.frame_angle,
-                                "omega_frame": self.model.omega_frame, "n_done": n_done,
-                                "n_records": n_records, "n_parts": self._n_parts,
-                                "plan": json.dumps(plan),
-                                "rng_state": json.dumps(self._rng_state),
-                                "last_motor": json.dumps(self._last_motor),
-                                "wall_seconds": self.wall_seconds + time.perf_counter() - wall0,
-                                "spec": json.dumps(self.spec())})
-
-    def spec(self) -> dict:
-        """Everything needed to rebuild this simulator (JSON-serializable)."""
-        return {"params": self.params.to_dict(), "motor": asdict(self.motor),
-                "boundary": asdict(self.boundary), "solver": asdict(self.solver),
-                "thermal": self.thermal, "seed": self.seed}
-
-    @classmethod
-    def from_spec(cls, spec: dict) -> "Simulator":
-        motor = dict(spec["motor"])
-        if motor.get("schedule") is not None:
-            motor["schedule"] = tuple(tuple(x) for x in motor["schedule"])
-        return cls(Params.from_dict(spec["params"]), Motor(**motor), Boundary(**spec["boundary"]),
-                   thermal=spec["thermal"], seed=spec["seed"], solver=SolverOptions(**spec["solver"]))
+    # -- checkpoints ------------------------------------------------------------------
+    def _checkpoint(self, files: RunFiles, plan: dict, n_done: int, wall0: float) -> None:
+        ref_u, ref_e, ref_m = self.model.charts()
+        files.write_checkpoint(
+            {"y": self.y, "ref_u": ref_u, "ref_e": ref_e, "ref_m": ref_m},
+            {"t": self.t, "frame_angle": self.frame_angle, "omega_frame": self.model.omega_frame,
+             "n_done": n_done, "n_records": n_done + 1,  # + the initial record
+             "plan": json.dumps(plan), "rng_state": json.dumps(self._rng_state),
+             "last_motor": json.dumps(self._last_motor),
+             "wall_seconds": self.wall_seconds + time.perf_counter() - wall0,
+             "spec": json.dumps(self.spec())})
 
     @classmethod
     def resume(cls, output: str | Path, progress: bool | None = None) -> tuple["Simulator", Trajectory]:
@@ -423,96 +474,45 @@ class Simulator:
         with the same random stream, so the final file is identical (deterministic runs
         bit-for-bit).
         """
-        output = Path(output)
-        ckpt = checkpoint_path(output)
-        attrs = io.read_trajectory(output, records=False)["attrs"]
-        status = str(attrs.get("status", ""))
+        files = RunFiles(output)
+        attrs = files.attrs()
         try:
-            if status == "complete":  # killed after writing the file, before tidying up
-                ckpt.unlink(missing_ok=True)
-                io.drop_parts(output)
-                data = io.read_trajectory(output)
+            if str(attrs.get("status", "")) == COMPLETE:  # killed after writing the file, before tidying up
+                files.tidy()
                 sim = cls.from_spec(json.loads(attrs["spec"]))
                 sim.wall_seconds = float(attrs.get("wall_seconds", 0.0))
                 sim.steps = int(attrs.get("steps", 0))
-                return sim, Trajectory({k: data[k] for k in io.RECORD_FIELDS}, sim.metadata())
-            io.check_writable(output)
-            for p in (output, ckpt):
-                io.drop_temps(p)
-            if ckpt.exists():
-                sim, plan, start = cls._from_checkpoint(ckpt)
+                return sim, files.read(sim.metadata())
+            ckpt = files.read_checkpoint()
+            if ckpt is not None:
+                sim, plan, start = cls._from_checkpoint(*ckpt)
+                n_parts = int(ckpt[1]["n_parts"])
             else:  # killed before its first checkpoint: start again (CLI runs start at t = 0)
-                plan, start = json.loads(attrs.get("plan", "{}")), 0
+                plan, start, n_parts = json.loads(attrs.get("plan", "{}")), 0, 0
                 if plan.get("t0") != 0.0:
                     raise ParameterError("resume", str(output), "a run with a checkpoint file "
-                                         f"{ckpt.name} (none found; the run stopped before its "
-                                         "first checkpoint)")
+                                         f"{files.checkpoint.name} (none found; the run stopped "
+                                         "before its first checkpoint)")
                 sim = cls.from_spec(json.loads(attrs["spec"]))
-                sim._n_parts = 0
         except (OSError, KeyError, ValueError, TypeError) as exc:
             if isinstance(exc, ParameterError):
                 raise
             raise ParameterError("resume", str(output), f"a run with a readable checkpoint ({exc!r})")
-        io.drop_parts(output, keep=sim._n_parts)  # parts written after the checkpoint
-        if status != io.RUNNING:  # interrupted or failed: its records are in the parts again
-            with _writing(output):
-                io.create_trajectory(output, sim.model.n, {**attrs, "status": io.RUNNING})
-        return sim, sim._loop(plan, start, output, progress)
+        files.reopen(attrs, n_parts, sim.model.n)
+        return sim, sim._loop(plan, start, files, progress)
 
     @classmethod
-    def _from_checkpoint(cls, ckpt: Path) -> tuple["Simulator", dict, int]:
-        """The simulator in the state of checkpoint ``ckpt``, its plan and the records done."""
-        import h5py
-
-        with h5py.File(ckpt, "r") as f:
-            a = dict(f.attrs)
-            y, charts = f["y"][()], (f["ref_u"][()], f["ref_e"][()], f["ref_m"][()])
+    def _from_checkpoint(cls, arrays: dict, a: dict) -> tuple["Simulator", dict, int]:
+        """The simulator in the state of a checkpoint (datasets, attributes), its plan and
+        the records done."""
         sim = cls.from_spec(json.loads(a["spec"]))
-        sim.t, sim.y, sim.frame_angle = float(a["t"]), y, float(a["frame_angle"])
-        sim.model.set_omega_frame(float(a["omega_frame"]))
-        sim.model.set_charts(*charts)
+        charts = (arrays["ref_u"], arrays["ref_e"], arrays["ref_m"])
+        sim._place(State(arrays["y"], charts, float(a["frame_angle"])), float(a["t"]),
+                   float(a["omega_frame"]))
         sim._rng_state = json.loads(a["rng_state"])
         sim._last_motor = tuple(json.loads(a["last_motor"]))
         sim.wall_seconds = float(a["wall_seconds"])
-        sim._n_parts = int(a["n_parts"])
         return sim, json.loads(a["plan"]), int(a["n_done"])
-
-    def _flush(self, buf, all_buf, output, stepper):
-        if all_buf is not None:
-            for k, v in buf.items():
-                all_buf[k].extend(v)
-        elif output is not None and buf["t"]:
-            with _writing(output):
-                io.write_part(output, self._n_parts, buf)
-            self._n_parts += 1
-        for v in buf.values():
-            v.clear()
-        self._rng_state = getattr(stepper, "rng_state", None)
-
-    def _finish(self, output: Path, buf: dict, status: str, **attrs) -> None:
-        """Write the main file from the parts and the records in ``buf`` (atomically)."""
-        with _writing(output):
-            io.finish_trajectory(output, buf, self.y, {"status": status, **attrs})
-
-    def _adapt_frame(self, buf) -> bool:
-        """Co-rotating frame (frame='auto'): follow the motor speed once it has settled; in
-        unsteady states (buckled, oscillating) follow its mean roughly (within 25 %), which
-        keeps the integrator restarts rare while the filament stays slow in that frame."""
-        if self.solver.frame != "auto" or len(buf["motor_angle"]) < 5:
-            return False
-        t = np.array(buf["t"][-5:])
-        key = "motor_angle" if self.thermal else "motor_speed"
-        vals = np.array(buf[key][-5:])
-        rates = np.diff(vals) / np.diff(t) if self.thermal else vals
-        target = float(np.clip(np.median(rates), -3 * self._omega_scale, 3 * self._omega_scale))
-        spread = float(np.ptp(rates))  # transients spike the instantaneous speed: median, capped
-        cur = self.model.omega_frame
-        steady = spread < 0.02 * abs(target) + 1.0
-        tol = 0.01 * abs(cur) + 1.0 if steady else 0.25 * abs(target) + 1.0
-        if abs(target - cur) > tol:
-            self.model.set_omega_frame(target)
-            return True
-        return False
 
 
 def run_first_success(make, attempts, t_end: float, save_every: float):
@@ -534,33 +534,13 @@ def run_first_success(make, attempts, t_end: float, save_every: float):
     return None, None, None, None, errors
 
 
-def checkpoint_path(output: str | Path) -> Path:
-    output = Path(output)
-    return output.with_name(output.name + ".ckpt")
-
-
-class OutputError(SimulationError):
-    """An output file could not be written (disk full, …)."""
-
-
-@contextmanager
-def _writing(output: Path):
-    """Report a failed write as one line; the parts and the last checkpoint stay usable."""
-    try:
-        yield
-    except OSError as exc:
-        keep = (f"the last checkpoint is kept: free space, then flagellum simulate --resume {output}"
-                if checkpoint_path(output).exists() else "no checkpoint had been written")
-        raise OutputError(f"cannot write {output} ({exc.strerror or exc}); {keep}") from None
-
-
-def _record_bytes(n: int) -> int:
-    return 8 * sum(int(np.prod(shape(n))) for shape, _ in io.RECORD_FIELDS.values())
-
-
 def _progress(total: int, enabled: bool):
     if not enabled:
         return None
     from tqdm import tqdm
 
     return tqdm(total=total, unit="save", desc="simulating", leave=False, dynamic_ncols=True)
+
+
+__all__ = ["CHART_LIMIT", "MAX_RECORDS", "MAX_STRAIN", "Simulator", "SolverOptions", "State",
+           "run_first_success"]

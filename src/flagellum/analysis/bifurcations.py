@@ -25,13 +25,10 @@ the step.
 from __future__ import annotations
 
 import concurrent.futures
-import math
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, Callable
-
-import numpy as np
 
 from ..errors import ParameterError
 from ..motor import Boundary
@@ -52,34 +49,6 @@ Simulate = Callable[[float, Any], "tuple[dict, Any]"]
 
 
 # -- the real simulation ------------------------------------------------------------------
-def _rotate_z(v: np.ndarray, angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    out = np.array(v, float, copy=True)
-    out[..., 0], out[..., 1] = c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]
-    return out
-
-
-def lab_state(sim) -> tuple:
-    """(y, charts) of a simulator, turned from its co-rotating frame (``sim.frame_angle``)
-    into the lab frame; y holds the hook tangent, then (position, angle) per bead."""
-    y, (ref_u, ref_e, ref_m) = sim.y.copy(), sim.model.charts()
-    a = sim.frame_angle
-    y[:3] = _rotate_z(y[:3], a)
-    body = y[3:].reshape(-1, 4)
-    body[:, :3] = _rotate_z(body[:, :3], a)
-    return y, (_rotate_z(ref_u, a), _rotate_z(ref_e, a), ref_m)
-
-
-def start_from(sim, state: tuple) -> None:
-    """Make a fresh simulator (t = 0, frame angle 0: its frame is the lab) continue from a
-    :func:`lab_state`; the material angles are relative to the charts, so both are set."""
-    y, charts = state
-    if sim.t != 0.0 or sim.frame_angle != 0.0 or y.shape != sim.y.shape:
-        raise ParameterError("state", f"{y.shape}", f"a state of shape {sim.y.shape} for a fresh simulator")
-    sim.y = np.array(y, float, copy=True)
-    sim.model.set_charts(*charts)
-
-
 @dataclass(frozen=True)
 class RunConfig:
     """One deterministic run at a torque, classified: the ``simulate`` of the search."""
@@ -93,7 +62,7 @@ class RunConfig:
     samples: int = 600
     rtol: float = 1e-6
 
-    def __call__(self, torque: float, state: tuple | None = None) -> tuple[dict, tuple | None]:
+    def __call__(self, torque: float, state: Any = None) -> tuple[dict, Any]:
         from ..helix import Helix
         from ..motor import Motor
         from ..simulator import Simulator, SolverOptions, run_first_success
@@ -110,13 +79,11 @@ class RunConfig:
         attempts = [("cvode", f) for f in frames] + [("implicit", "lab")]
         wall0 = time.perf_counter()
 
-        def make(method, frame):
-            sim = Simulator(self.params, motor, self.boundary,
-                            solver=SolverOptions(method=method, rtol=self.rtol,
-                                                 atol=self.rtol * 1e-2, frame=frame))
-            if state is not None:
-                start_from(sim, state)
-            return sim
+        def make(method, frame):  # a continuation starts from the last run's lab-frame state
+            opts = SolverOptions(method=method, rtol=self.rtol, frame=frame)
+            if state is None:
+                return Simulator(self.params, motor, self.boundary, solver=opts)
+            return Simulator.from_state(state, self.params, motor, self.boundary, solver=opts)
 
         tr, sim, method, frame, errors = run_first_success(make, attempts, t_total,
                                                            t_total / self.samples)
@@ -132,7 +99,7 @@ class RunConfig:
                       "thrust": m.thrust_mean, "thrust_min": float(tr.thrust[sel].min()),
                       "thrust_max": float(tr.thrust[sel].max()), "swings": m.swings,
                       "centroid_offset": m.centroid_offset, "frame": frame, "solver": method})
-        return probe, lab_state(sim)
+        return probe, sim.lab_state()
 
 
 # -- the search (independent of the simulation) ------------------------------------------
@@ -388,4 +355,4 @@ def bifurcations(params: Params | None = None, boundary: Boundary | None = None,
 
 
 __all__ = ["QUALITIES", "RunConfig", "bifurcations", "bracket", "continuation", "critical",
-           "lab_state", "refine", "scan_torques", "start_from"]
+           "refine", "scan_torques"]

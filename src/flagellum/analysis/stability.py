@@ -224,7 +224,7 @@ def _rigid_start(params: Params, boundary: Boundary, torque: float):
     least eigenvalue of its rotational resistance about bead 0 (App. B,
     :func:`flagellum.hydro.rft.pinned_rotation`).
     """
-    from ..simulator import pinned_helix, pinned_omega_per_torque
+    from ..hydro.rft import pinned_helix, pinned_omega_per_torque
 
     m = RodModel(params, Motor(torque), boundary)
     return m, m.initial_state(pinned_helix(params, boundary)), torque * pinned_omega_per_torque(params)

@@ -194,3 +194,34 @@ def rft_summary(params, critical_force: float = 1.0) -> dict:
            "critical_torque_line": {"critical_force": critical_force,
                                     **critical_torque_line(coeffs, critical_force, fluid.viscosity)}}
     return out
+
+
+def pinned_helix(params, boundary=None) -> DiscreteHelix:
+    """The discrete helix of ``params`` turned so that its pinned rigid-body rotation axis
+    is −e_z (unturned for a clamped hook of ``boundary``, which fixes the hook frame).
+
+    A rigid helix pinned at bead 0 rotates steadily only about the least-resistance
+    eigen-axis of its rotational resistance matrix (:func:`pinned_rotation`); starting there
+    avoids a long precessing transient.
+    """
+    from ..helix import discrete_helix, rotation_between
+
+    dh = discrete_helix(params.filament)
+    if boundary is not None and boundary.hook == "clamped":
+        return dh
+    gp, gn, gr = params.gammas
+    pin = pinned_rotation(resistance_matrix(*bead_nodes(dh), gp, gn, gr), dh.axis_direction)
+    rot = rotation_between(pin.axis, np.array([0.0, 0.0, -1.0]))
+    return DiscreteHelix(dh.positions @ rot.T, np.einsum("ij,njk->nik", rot, dh.frames),
+                         rot @ dh.axis_point, rot @ dh.axis_direction, dh.radius, dh.pitch,
+                         dh.segment_length)
+
+
+def pinned_omega_per_torque(params) -> float:
+    """ω/M [rad/(s·pN·µm)] of the rigid discrete helix of ``params`` pinned at bead 0."""
+    from ..helix import discrete_helix
+
+    dh = discrete_helix(params.filament)
+    gp, gn, gr = params.gammas
+    return pinned_rotation(resistance_matrix(*bead_nodes(dh), gp, gn, gr),
+                           dh.axis_direction).omega_per_torque

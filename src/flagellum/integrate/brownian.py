@@ -319,7 +319,8 @@ class ImplicitStepper:
     noise to :data:`THERMAL_TOL_FRACTION` of a bead's thermal step.
     ``advance(t)`` takes ⌈(t − t_now)/dt⌉ equal steps (the step is shortened evenly so that
     t is hit exactly); the random stream is numpy's PCG64 seeded with ``seed`` and can be
-    restored from ``rng_state`` (see :attr:`rng_state`).
+    restored from ``rng_state`` (see :attr:`rng_state`). Satisfies
+    :class:`flagellum.integrate.base.Stepper`.
     """
 
     def __init__(self, model, t0: float, y0: np.ndarray, dt: float, kT: float = 0.0,
@@ -351,8 +352,22 @@ class ImplicitStepper:
         self.n_steps = self.n_iter = self.n_jac = 0
         self.reset(t0, y0)
 
+    @classmethod
+    def from_options(cls, model, t: float, y: np.ndarray, options, *, kT: float = 0.0,
+                     seed: int = 0, rng_state=None) -> "ImplicitStepper":
+        """The stepper of ``options`` (``dt``; ``theta`` when ``scheme`` is ``"theta"``,
+        else BDF2) with noise at ``kT`` from the stream ``seed`` / ``rng_state``."""
+        return cls(model, t, y, options.dt, kT=kT, seed=seed, rng_state=rng_state,
+                   theta=options.theta if options.scheme == "theta" else None)
+
+    @property
+    def fixed_step(self) -> float:
+        """Δt [s] (:meth:`advance` shortens its steps evenly when the span is no multiple of it)."""
+        return self.dt
+
     @property
     def rng_state(self):
+        """State of the PCG64 stream (a JSON-serializable dict)."""
         return self.rng.bit_generator.state
 
     def reset(self, t0: float, y0: np.ndarray) -> None:
@@ -360,6 +375,7 @@ class ImplicitStepper:
         self.y = np.array(y0, float)
         self._jac_age = -1
         self._hist = np.zeros(4)  # new right-hand side: no BDF2 history
+
     def advance(self, t: float) -> np.ndarray:
         span = t - self.t
         if span <= 0:

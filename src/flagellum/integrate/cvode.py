@@ -39,11 +39,17 @@ class CvodeStepper:
 
     ``advance(t)`` integrates to time t and returns the state; the stepper keeps CVODE's
     history between calls, and restarts it (cheaply) when :meth:`reset` is called after a
-    change of the right-hand side (new chart, new frame rate).
+    change of the right-hand side (new chart, new frame rate). Satisfies
+    :class:`flagellum.integrate.base.Stepper` (adaptive: ``fixed_step`` is None;
+    deterministic: ``rng_state`` is None). ``max_num_steps``: CVODE's limit of internal
+    steps per :meth:`advance`.
     """
 
+    fixed_step = None
+    rng_state = None
+
     def __init__(self, model, t0: float, y0: np.ndarray, rtol: float = 1e-6,
-                 atol: float = 1e-8, max_step: float = 0.0):
+                 atol: float = 1e-8, max_step: float = 0.0, max_num_steps: int = 100000):
         try:
             from sksundae.cvode import CVODE
         except ImportError as exc:  # pragma: no cover - dependency declared
@@ -51,6 +57,7 @@ class CvodeStepper:
         self._CVODE = CVODE
         self.model = model
         self.rtol, self.atol, self.max_step = rtol, atol, max_step
+        self.max_num_steps = int(max_num_steps)
         n = len(y0)
         self._ab = np.zeros((n, 2 * KL + KU + 1))
         self._yw = np.zeros(n)
@@ -60,6 +67,13 @@ class CvodeStepper:
         self.n_steps = 0
         self._t_max = -np.inf
         self.reset(t0, y0)
+
+    @classmethod
+    def from_options(cls, model, t: float, y: np.ndarray, options, *, kT: float = 0.0,
+                     seed: int = 0, rng_state=None) -> "CvodeStepper":
+        """The stepper of ``options`` (``rtol``, ``atol``); deterministic, so ``kT``, ``seed``
+        and ``rng_state`` are not used."""
+        return cls(model, t, y, options.rtol, options.atol)
 
     def _rhs(self, t, y, yp):
         if t > self._t_max:  # a new step attempt (CVODE does not expose its counters here)
@@ -80,7 +94,7 @@ class CvodeStepper:
         self.y = np.array(y0, float)
         self._solver = self._CVODE(self._rhs, jacfn=self._jac, linsolver="band", lband=KL,
                                    uband=KU, rtol=self.rtol, atol=self.atol,
-                                   max_step=self.max_step, max_num_steps=100000)
+                                   max_step=self.max_step, max_num_steps=self.max_num_steps)
         self._solver.init_step(self.t, self.y)
 
     def advance(self, t: float) -> np.ndarray:

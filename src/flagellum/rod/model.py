@@ -7,6 +7,8 @@ layout, the reference-frame charts and the workspace arrays, and exposes ``rhs(t
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..helix import DiscreteHelix, discrete_helix
@@ -102,11 +104,9 @@ class RodModel:
 
     def update_reference_twists(self, y: np.ndarray) -> None:
         """Follow the branch of each joint's reference twist (call between steps)."""
-        T, E1, E2, L, S = self._ws[:5]
-        A1 = self._ws[9]
-        K.frames(y, self.n, self.ref_u, self.ref_e, T, E1, E2, L, S, A1)
+        w = self._fill_frames(y)
         raw = np.zeros(self.n + 1)
-        K.reference_twists(self.n, T, A1, raw)
+        K.reference_twists(self.n, w.T, w.A1, raw)
         self.ref_m[1:] = raw[1:] + 2 * np.pi * np.round((self.ref_m[1:] - raw[1:]) / (2 * np.pi))
 
     def rechart(self, y: np.ndarray, threshold: float = -0.5) -> bool:
@@ -116,14 +116,12 @@ class RodModel:
         reference a1, so the material frames and the state are unchanged.
         """
         self.update_reference_twists(y)
-        T, E1, E2, L, S = self._ws[:5]
-        A1 = self._ws[9]
-        K.frames(y, self.n, self.ref_u, self.ref_e, T, E1, E2, L, S, A1)
-        bad = np.einsum("ij,ij->i", T, self.ref_u) < threshold
+        w = self._fill_frames(y)
+        bad = np.einsum("ij,ij->i", w.T, self.ref_u) < threshold
         if not bad.any():
             return False
-        self.ref_u[bad] = T[bad]
-        self.ref_e[bad] = A1[bad]
+        self.ref_u[bad] = w.T[bad]
+        self.ref_e[bad] = w.A1[bad]
         return True
 
     def charts(self):
@@ -145,17 +143,18 @@ class RodModel:
 
     def energy(self, y: np.ndarray) -> float:
         """Elastic energy [pN·µm] (bending, twist, stretching, hook)."""
-        return K.elastic(y, *self._kernel_args(), self.ref_u, self.ref_e, self.ref_m, *self._ws[:7],
-                         self._ws[9])
+        w = _Workspace(*self._ws)
+        return K.elastic(y, *self._kernel_args(), self.ref_u, self.ref_e, self.ref_m,
+                         w.T, w.E1, w.E2, w.LEN, w.S, w.GT, w.GTH, w.A1)
 
     def gradients(self, y: np.ndarray):
         """(E, ∂E/∂r (n+1,3), ∂E/∂θ (n+1), G_t (n+1,3)) with frames transported (gauge-free)."""
-        ws = self._ws
+        w = _Workspace(*self._ws)
         e = self.energy(y)
         n, h, _, _, Kst = self._kernel_args()[:5]
         dr = np.zeros((self.n + 1, 3))
-        K.bead_gradient(n, h, Kst, ws[0], ws[3], ws[5], dr)
-        return e, dr, ws[6].copy(), ws[5].copy()
+        K.bead_gradient(n, h, Kst, w.T, w.LEN, w.GT, dr)
+        return e, dr, w.GTH.copy(), w.GT.copy()
 
     def jacobian_colors(self, kl: int, ku: int):
         """(color, lo, hi) for :func:`~flagellum.rod.kernels.colored_jacobian`: the rows each
@@ -222,3 +221,42 @@ class RodModel:
         out[..., 0] = c * x - s * yy
         out[..., 1] = s * x + c * yy
         return out
+
+    # -- frames -----------------------------------------------------------------------
+    def frames(self, y: np.ndarray | None = None) -> "Frames":
+        """The frames of state ``y`` in the current charts (copies); without ``y``, those of
+        the last :meth:`rhs`, :meth:`energy` or :meth:`frames` call. Row 0 is the hook frame."""
+        w = _Workspace(*self._ws) if y is None else self._fill_frames(y)
+        return Frames(w.T.copy(), w.E1.copy(), w.E2.copy(), w.LEN.copy(), w.S.copy(), w.A1.copy())
+
+    def _fill_frames(self, y: np.ndarray) -> "_Workspace":
+        w = _Workspace(*self._ws)
+        K.frames(y, self.n, self.ref_u, self.ref_e, w.T, w.E1, w.E2, w.LEN, w.S, w.A1)
+        return w
+
+
+class Frames(NamedTuple):
+    """Frames of a rod state (:meth:`RodModel.frames`): row i belongs to frame i (0: the hook
+    frame, i ≥ 1: bond i from bead i−1 to bead i), computational frame."""
+
+    tangents: np.ndarray  #: (N+1, 3) unit tangents t_i (row 0: u0/|u0|)
+    e1: np.ndarray  #: (N+1, 3) first material vectors, cos θ a1 + sin θ t × a1
+    e2: np.ndarray  #: (N+1, 3) second material vectors, t × e1
+    lengths: np.ndarray  #: (N+1,) bond lengths [µm] (row 0: |u0|)
+    spin: np.ndarray  #: (N+1, 3) spin connection −(u × t)/(1 + u·t) of the charts
+    reference: np.ndarray  #: (N+1, 3) reference vectors a1 = P(u→t) e of the charts
+
+
+class _Workspace(NamedTuple):
+    """The arrays of :func:`flagellum.rod.kernels.workspace`, by name."""
+
+    T: np.ndarray
+    E1: np.ndarray
+    E2: np.ndarray
+    LEN: np.ndarray
+    S: np.ndarray
+    GT: np.ndarray
+    GTH: np.ndarray
+    DR: np.ndarray
+    V: np.ndarray
+    A1: np.ndarray

@@ -24,7 +24,6 @@ import numpy as np
 from ..helix import Helix
 from ..hydro.rft import effective_bending_rigidity
 from ..params import Params
-from ..rod import kernels as K
 
 #: finite-difference step of the Hessian [µm, rad]
 FD_STEP = 1e-4
@@ -57,9 +56,8 @@ def continuum_compliance(params: Params | None = None, direction=(1.0, 0.0, 0.0)
 def _frame_rotation(model, y, rot0) -> np.ndarray:
     """Small-rotation vector of the last material frame of state y relative to rot0
     (exact to O(|Θ|³))."""
-    T, E1, E2, LEN, S = model._ws[:5]
-    K.frames(y, model.n, model.ref_u, model.ref_e, T, E1, E2, LEN, S, model._ws[9])
-    a = np.stack([E1[-1], E2[-1], T[-1]], axis=1) @ rot0.T
+    fr = model.frames(y)
+    a = np.stack([fr.e1[-1], fr.e2[-1], fr.tangents[-1]], axis=1) @ rot0.T
     a = (a - a.T) / 2
     return np.array([a[2, 1], a[0, 2], a[1, 0]])
 
@@ -93,9 +91,8 @@ def bending_compliance(params: Params | None = None, directions=((1.0, 0, 0), (0
                 y[i] -= si * step
                 y[j] -= sj * step
             H[a, b] = H[b, a] = e / (4 * step * step)
-    ws = model._ws
-    K.frames(y0, model.n, model.ref_u, model.ref_e, *ws[:5], ws[9])
-    rot0 = np.stack([ws[1][-1], ws[2][-1], ws[0][-1]], axis=1)
+    fr = model.frames(y0)
+    rot0 = np.stack([fr.e1[-1], fr.e2[-1], fr.tangents[-1]], axis=1)
     G = np.empty((n, 3))
     for a, i in enumerate(free):
         y[i] += step

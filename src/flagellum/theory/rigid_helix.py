@@ -23,6 +23,7 @@ from scipy.integrate import solve_ivp
 from ..errors import ParameterError
 from ..helix import Helix
 from ..hydro.rft import helix_nodes, resistance_matrix
+from ..integrate import ATOL_PER_RTOL
 from ..params import Params, check_real
 
 
@@ -122,7 +123,7 @@ def rotate(B, torque, t_end: float, *, R0=None, n_out: int = 401, rtol: float = 
 
     t = np.linspace(0.0, t_end, n_out)
     sol = solve_ivp(rhs, (0.0, t_end), R0.ravel(), method="DOP853", t_eval=t,
-                    rtol=rtol, atol=rtol * 1e-2)
+                    rtol=rtol, atol=rtol * ATOL_PER_RTOL)
     R = sol.y.T.reshape(-1, 3, 3)
     u, _, vt = np.linalg.svd(R)   # remove the tiny drift off SO(3)
     R = u @ vt

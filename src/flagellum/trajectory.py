@@ -1,0 +1,213 @@
+"""A run's records: :class:`Trajectory` in memory and :class:`RunFiles` on disk.
+
+A run with an output file writes, at each checkpoint, the records of the interval to a new
+part file ``<output>.parts/NNNNNNNN.h5`` and the simulator's state to ``<output>.ckpt``
+(both atomically); at the end the main file is written anew from its attributes and all
+parts (:func:`flagellum.io.finish_trajectory`). A run killed at any instant therefore leaves
+whole files only, readable as they are (:func:`flagellum.io.read_trajectory`) and resumable
+from the last checkpoint (:meth:`flagellum.simulator.Simulator.resume`).
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from . import io
+from .analysis.observables import Summary, summarize
+from .errors import SimulationError
+
+COMPLETE = "complete"  #: ``status`` of a finished run's main file
+
+
+@dataclass(repr=False, eq=False)
+class Trajectory:
+    """Saved records of a run (lab frame) with the run's parameters.
+
+    n_t records, N segments (N+1 beads); the fields are those of
+    :data:`flagellum.io.RECORD_FIELDS`.
+
+    Attributes
+    ----------
+    t : (n_t,) time [s].
+    positions : (n_t, N+1, 3) bead positions [µm]; bead 0 is the anchor.
+    angles : (n_t, N+1) material angles θ_i [rad] of the hook frame (0) and the bond frames
+        about their tangents, relative to the charts of the rod model.
+    hook_tangent : (n_t, 3) unit tangent of the hook frame.
+    thrust : (n_t,) force of the filament on its anchor along e_z [pN] (paper §3.1).
+    anchor_force : (n_t, 3) elastic force on bead 0 [pN].
+    motor_speed : (n_t,) rotation rate of the hook frame about e_z, ω·e_z [rad/s].
+    motor_angle : (n_t,) accumulated (unwrapped) rotation of the hook frame about e_z [rad].
+    torque : (n_t,) motor torque M(t) [pN·µm].
+    energy : (n_t,) elastic energy [pN·µm].
+    frame_angle : (n_t,) angle of the computational (co-rotating) frame about e_z [rad].
+    meta : the run's metadata (parameters, solver, provenance:
+        :meth:`flagellum.simulator.Simulator.metadata`).
+    """
+
+    t: np.ndarray
+    positions: np.ndarray
+    angles: np.ndarray
+    hook_tangent: np.ndarray
+    thrust: np.ndarray
+    anchor_force: np.ndarray
+    motor_speed: np.ndarray
+    motor_angle: np.ndarray
+    torque: np.ndarray
+    energy: np.ndarray
+    frame_angle: np.ndarray
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        for name in io.RECORD_FIELDS:
+            setattr(self, name, np.asarray(getattr(self, name)))
+
+    @classmethod
+    def from_records(cls, records: dict, meta: dict) -> "Trajectory":
+        """From a dict with (at least) the record fields, e.g. :func:`flagellum.io.read_trajectory`."""
+        return cls(**{k: records[k] for k in io.RECORD_FIELDS}, meta=meta)
+
+    @property
+    def records(self) -> dict:
+        """The record fields as a dict (name → array)."""
+        return {k: getattr(self, k) for k in io.RECORD_FIELDS}
+
+    @property
+    def y(self):
+        """Bead positions, shape (n_t, n+1, 3) (scipy-like alias of ``positions``)."""
+        return self.positions
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def __repr__(self) -> str:
+        span = f", t = {self.t[0]:.6g} … {self.t[-1]:.6g} s" if len(self.t) else ""
+        segments = f", {self.positions.shape[1] - 1} segments" if self.positions.ndim == 3 else ""
+        return f"Trajectory({len(self.t)} records{span}{segments})"
+
+    def summary(self, t_from: float | None = None) -> Summary:
+        """Time averages (:func:`flagellum.analysis.observables.summarize`). ω is the slope of
+        the unwrapped hook angle: the rotation rate about the local helix axis at the motor
+        (paper §3.1.2), also when the hook tilts (buckled: ω·e_z is smaller by cos β)."""
+        return summarize(self.t, self.thrust, self.motor_angle, self.positions, self.energy,
+                         self.meta.get("helix_radius", 0.2), t_from)
+
+
+# -- files ------------------------------------------------------------------------------
+def checkpoint_path(output: str | Path) -> Path:
+    output = Path(output)
+    return output.with_name(output.name + ".ckpt")
+
+
+def record_bytes(n: int) -> int:
+    """Bytes of one record of a filament with ``n`` segments."""
+    return 8 * sum(int(np.prod(shape(n))) for shape, _ in io.RECORD_FIELDS.values())
+
+
+class OutputError(SimulationError):
+    """An output file could not be written (disk full, …)."""
+
+
+@contextmanager
+def writing(output: Path):
+    """Report a failed write as one line; the parts and the last checkpoint stay usable."""
+    try:
+        yield
+    except OSError as exc:
+        keep = (f"the last checkpoint is kept: free space, then flagellum simulate --resume {output}"
+                if checkpoint_path(output).exists() else "no checkpoint had been written")
+        raise OutputError(f"cannot write {output} ({exc.strerror or exc}); {keep}") from None
+
+
+class RunFiles:
+    """The files of one run into ``path``: main file, part files and checkpoint.
+
+    Every write is atomic and reports a failure as :class:`OutputError`.
+    ``n_parts``: the part files written so far (the next part's index).
+    """
+
+    def __init__(self, path: str | Path, n_parts: int = 0):
+        self.path = Path(path)
+        self.n_parts = int(n_parts)
+
+    @property
+    def checkpoint(self) -> Path:
+        return checkpoint_path(self.path)
+
+    @classmethod
+    def create(cls, path: str | Path, n_segments: int, attrs: dict, n_records: int) -> "RunFiles":
+        """Check that the disk takes ``n_records`` records (twice: the parts and the final
+        file exist together for a moment), remove what an earlier run into ``path`` left
+        and create the (empty) main file with ``attrs``."""
+        files = cls(path)
+        io.check_writable(files.path, 2 * n_records * record_bytes(n_segments))
+        files.checkpoint.unlink(missing_ok=True)
+        io.drop_parts(files.path)
+        with writing(files.path):
+            io.create_trajectory(files.path, n_segments, {**attrs, "status": io.RUNNING})
+        return files
+
+    def write_part(self, records: dict) -> None:
+        """The next part file from ``records`` (dict of equally long lists; none if empty)."""
+        if records["t"]:
+            with writing(self.path):
+                io.write_part(self.path, self.n_parts, records)
+            self.n_parts += 1
+
+    def write_checkpoint(self, arrays: dict, attrs: dict) -> None:
+        """Atomically replace the checkpoint by ``arrays`` (datasets) and ``attrs`` (plus
+        ``n_parts``)."""
+        import h5py
+
+        with writing(self.path), io.atomic_path(self.checkpoint) as tmp:
+            with h5py.File(tmp, "w") as f:
+                for k, v in arrays.items():
+                    f[k] = v
+                f.attrs.update({**attrs, "n_parts": self.n_parts})
+
+    def finish(self, tail: dict, final_state, status: str, **attrs) -> None:
+        """Write the main file from the parts and the records in ``tail`` (atomically)."""
+        with writing(self.path):
+            io.finish_trajectory(self.path, tail, final_state, {"status": status, **attrs})
+
+    def tidy(self) -> None:
+        """Remove the checkpoint and the parts of a complete main file."""
+        self.checkpoint.unlink(missing_ok=True)
+        io.drop_parts(self.path)
+
+    def read(self, meta: dict) -> Trajectory:
+        """The records of the main file (of its parts while running), with ``meta``."""
+        return Trajectory.from_records(io.read_trajectory(self.path), meta)
+
+    # -- resume ---------------------------------------------------------------------------
+    def attrs(self) -> dict:
+        """The main file's attributes (:class:`~flagellum.errors.ParameterError` if unreadable)."""
+        return io.read_trajectory(self.path, records=False)["attrs"]
+
+    def read_checkpoint(self) -> tuple[dict, dict] | None:
+        """(datasets, attributes) of the checkpoint, None if there is none; first checks that
+        the run can be continued here (writable) and removes what killed writes left."""
+        import h5py
+
+        io.check_writable(self.path)
+        for p in (self.path, self.checkpoint):
+            io.drop_temps(p)
+        if not self.checkpoint.exists():
+            return None
+        with h5py.File(self.checkpoint, "r") as f:
+            return {k: f[k][()] for k in f}, dict(f.attrs)
+
+    def reopen(self, attrs: dict, n_parts: int, n_segments: int) -> None:
+        """Continue after ``n_parts`` parts: drop later ones, and mark a finished (interrupted
+        or failed) main file with ``attrs`` running again (its records are in the parts)."""
+        self.n_parts = int(n_parts)
+        io.drop_parts(self.path, keep=self.n_parts)
+        if str(attrs.get("status", "")) != io.RUNNING:
+            with writing(self.path):
+                io.create_trajectory(self.path, n_segments, {**attrs, "status": io.RUNNING})
+
+
+__all__ = ["COMPLETE", "OutputError", "RunFiles", "Trajectory", "checkpoint_path", "record_bytes"]

@@ -12,7 +12,8 @@ import pytest
 
 from flagellum.cli import run
 from flagellum.reproduce import reproduce
-from flagellum.reproduce.common import Comparison, pixel_variance, write_csv
+from flagellum.io import write_csv
+from flagellum.reproduce.common import Comparison, pixel_variance
 
 #: rows each comparison.md must contain (substrings of the quantity column)
 EXPECTED_ROWS = {

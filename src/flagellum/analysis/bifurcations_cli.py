@@ -8,7 +8,7 @@ import sys
 import click
 
 from ..cli import _jsonable, emit_json, emit_table, param_options, params_from_cli
-from .bifurcations import QUALITIES, bifurcations as find
+from .bifurcations import SCAN_SETTINGS as QUALITIES, bifurcations as find
 from .stability_cli import boundary_from_cli, boundary_options
 
 

@@ -8,7 +8,7 @@ Method
   the paper's protocol (§3.1.2): rotate at M = 1 pN·µm, then step to M (within 0.01 s).
   Observables are averaged over the last half of the run (after the step).
 * Regime of each run: :func:`flagellum.analysis.regimes.classify`, with regime (iv)
-  required to have σ/σ0 > 1.5 (see :data:`.common.SIGMA_IV`).
+  required to have σ/σ0 > 1.5 (see :data:`flagellum.analysis.regimes.SIGMA_IV`).
 * M_c1 from the linear stability of the aligned state (root of λ(M),
   :func:`flagellum.analysis.stability.critical_torque`); from the simulations we report the
   bracket between the last aligned and the first buckled torque and, with two or more
@@ -27,8 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import (PAPER, REGIME_LABELS, Comparison, Timer, mpl, pmap, save_figure,
-                     simulate_point, write_csv, write_h5)
+from .._plot import pyplot
+from ..io import write_csv
+from ..paper import PAPER
+from .common import REGIME_LABELS, Comparison, Timer, pmap, save_figure, simulate_point, write_h5
 
 #: (torque, simulated time [s]) of the sweep; protocol and frame follow from the torque
 SWEEPS = {
@@ -122,7 +124,7 @@ def analyse(points: list[dict], quality: str) -> dict:
 
 
 def plot(points, ana, rft, crit, quality, out_dir: Path):
-    plt = mpl()
+    plt = pyplot()
     from matplotlib.gridspec import GridSpec
 
     fig = plt.figure(figsize=(15, 8.5))
@@ -218,18 +220,18 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
     files.append(write_h5(out_dir / "fig3.h5", groups, {"quality": quality}))
 
     cmp = Comparison("fig3", "thrust versus torque, regimes, buckling thresholds", quality)
-    cmp.add("M_c1 (first buckling, supercritical Hopf)", PAPER["M_c1"][0], crit["critical_torque"],
+    cmp.add("M_c1 (first buckling, supercritical Hopf)", PAPER["M_c1"].value, crit["critical_torque"],
             "pN·µm", "linear stability of the aligned state: root of λ(M) (critical_torque, N = 50)")
     lo, hi = ana["mc1_bracket"]
-    cmp.add("M_c1 from the simulation sweep (midpoint)", PAPER["M_c1"][0], ana["M_c1_sim"], "pN·µm",
+    cmp.add("M_c1 from the simulation sweep (midpoint)", PAPER["M_c1"].value, ana["M_c1_sim"], "pN·µm",
             f"last aligned torque {lo:g}, first buckled torque {hi:g} (deterministic simulations)")
     if math.isfinite(ana["M_c1_hopf"]):
-        cmp.add("M_c1 from the Hopf amplitude (amplitude² ∝ M − M_c1)", PAPER["M_c1"][0],
+        cmp.add("M_c1 from the Hopf amplitude (amplitude² ∝ M − M_c1)", PAPER["M_c1"].value,
                 ana["M_c1_hopf"], "pN·µm",
                 "fit of ((F_max − F_min)/2)² over buckled runs at M = "
                 + ", ".join(f"{m:g}" for m, _ in ana["hopf_points"]))
     lo2, hi2 = ana["mc2_bracket"]
-    cmp.add("M_c2 (second bifurcation)", PAPER["M_c2"][0], ana["M_c2"], "pN·µm",
+    cmp.add("M_c2 (second bifurcation)", PAPER["M_c2"].value, ana["M_c2"], "pN·µm",
             f"midpoint of last regime-(iii) torque {lo2:g} and first regime-(iv) torque {hi2:g} "
             "(simulation sweep; regime (iv): σ/σ0 > 1.5)" if math.isfinite(ana["M_c2"]) else
             "not resolved by this sweep (no regime-(iii) run below the first regime-(iv) run)")

@@ -25,8 +25,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import (PAPER, Comparison, Timer, mpl, pmap, save_figure, simulate_point,
-                     write_csv, write_h5)
+from .._plot import pyplot
+from ..io import write_csv
+from ..paper import PAPER
+from .common import Comparison, Timer, pmap, save_figure, simulate_point, write_h5
 from .fig3 import COLORS, run_sweep, stability_critical
 
 LAMBDA_TORQUES = {
@@ -67,7 +69,7 @@ def equipartition_sigma(params) -> float:
 
 
 def plot(lam, points, thermal, rft_omega, crit, quality, out_dir: Path, sig_eq_line: float = math.nan):
-    plt = mpl()
+    plt = pyplot()
     fig, axs = plt.subplots(2, 2, figsize=(11, 8.5))
     ok = [p for p in points if "error" not in p]
     okt = [p for p in thermal if "error" not in p]
@@ -164,22 +166,22 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
     iii = [p for p in ok if p["regime"] == "buckled"]
 
     cmp = Comparison("fig4", "λ, ω and χ, ⟨r⟩/L0 and σ/σ0 versus M", quality)
-    cmp.add("σ/σ0 below M_c1 from equipartition", PAPER["sigma_equipartition"][0], sig_eq, "",
+    cmp.add("σ/σ0 below M_c1 from equipartition", PAPER["sigma_equipartition"].value, sig_eq, "",
             "√(2kT L/A) with the helix spring constant A/(R²L), kT = 4.1e-3 pN·µm")
     cmp.add("σ/σ0 below M_c1, simulated with thermal noise (mean of the runs below)",
-            PAPER["sigma_simulated"][0], sig_th, "",
+            PAPER["sigma_simulated"].value, sig_th, "",
             "Brownian dynamics at M = " + ", ".join(f"{p['torque']:g}" for p in below)
             + " pN·µm (" + ", ".join(format(p["t_end"], "g") for p in below) + " s)")
     for p in below:
-        cmp.add(f"σ/σ0 with thermal noise at M = {p['torque']:g} pN·µm", PAPER["sigma_simulated"][0],
+        cmp.add(f"σ/σ0 with thermal noise at M = {p['torque']:g} pN·µm", PAPER["sigma_simulated"].value,
                 p["sigma_over_sigma0"], "", f"std of r(t) over t ≥ {p['t_from']:.3g} s (paper's definition)")
         cmp.add(f"fast part of σ/σ0 at M = {p['torque']:g} pN·µm (compressional fluctuations)",
-                PAPER["sigma_simulated"][0], p["sigma_fast_over_sigma0"], "",
+                PAPER["sigma_simulated"].value, p["sigma_fast_over_sigma0"], "",
                 "std of r(t) about its 10-ms running mean")
-    cmp.add("M where λ changes sign (supercritical Hopf)", PAPER["M_c1"][0],
+    cmp.add("M where λ changes sign (supercritical Hopf)", PAPER["M_c1"].value,
             crit["critical_torque"], "pN·µm", "root of λ(M), critical_torque (N = 50)")
     if math.isfinite(root):
-        cmp.add("M where λ changes sign, linear interpolation of the λ grid", PAPER["M_c1"][0], root,
+        cmp.add("M where λ changes sign, linear interpolation of the λ grid", PAPER["M_c1"].value, root,
                 "pN·µm", "λ(M) grid of panel (a)")
     for M in (-1.0, -0.5):
         if f"{M:g}" in lam_dict:
@@ -205,7 +207,7 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
             cmp.add(f"thermal ⟨r⟩/L0 at M = {p['torque']:g} [paper: agrees with deterministic]",
                     det["r_over_L0"], p["r_over_L0"], "", "paper column = our deterministic run")
     kT = params.fluid.kT
-    cmp.add("persistence length A/kT", PAPER["persistence_length"][0],
+    cmp.add("persistence length A/kT", PAPER["persistence_length"].value,
             params.filament.bend_rigidity / kT, "µm", "A = 3.5 pN·µm², kT = 4.1e-3 pN·µm")
     if iii:
         p = min(iii, key=lambda q: q["torque"])

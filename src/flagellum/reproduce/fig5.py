@@ -28,7 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import PAPER, Comparison, Timer, mpl, pmap, save_figure, write_csv, write_h5
+from .._plot import pyplot
+from ..io import write_csv
+from ..paper import PAPER
+from .common import Comparison, Timer, pmap, save_figure, write_h5
 
 INV_A = {"quick": (0.0, 0.5, 1.0, 2.0, 4.0, 10.0, 20.0),
          "full": (0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 8.0, 10.0,
@@ -144,7 +147,7 @@ def _theory_lines(a, theory, x: str, y: str) -> None:
 
 
 def plot(ana, theory, crit0, quality, out_dir: Path, sims=()):
-    plt = mpl()
+    plt = pyplot()
     fig, axs = plt.subplots(1, 2, figsize=(12, 5))
     x, M, F = ana["x"], ana["M"], ana["F"]
     a = axs[0]
@@ -234,13 +237,13 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
 
     e = ana["eq25"]
     cmp = Comparison("fig5", "buckling with a load sphere: M_c1(1/a) and F_c1(M_c1)", quality)
-    cmp.add("F_c1, anchored filament (1/a = 0)", PAPER["F_c1"][0], F0, "pN",
+    cmp.add("F_c1, anchored filament (1/a = 0)", PAPER["F_c1"].value, F0, "pN",
             "linear stability: thrust at the root of λ(M) (critical_torque)")
     lo, hi = ana["F_c1_range_1_2"]
-    cmp.add("F_c1 for M_c1 between 1 and 2 pN·µm: lowest", PAPER["F_c1"][0], lo, "pN", "linear stability")
-    cmp.add("F_c1 for M_c1 between 1 and 2 pN·µm: highest", PAPER["F_c1"][0], hi, "pN",
+    cmp.add("F_c1 for M_c1 between 1 and 2 pN·µm: lowest", PAPER["F_c1"].value, lo, "pN", "linear stability")
+    cmp.add("F_c1 for M_c1 between 1 and 2 pN·µm: highest", PAPER["F_c1"].value, hi, "pN",
             "linear stability [paper: nearly constant, slow linear increase]")
-    cmp.add("M_c1 linear in 1/a up to 1/a ≈", PAPER["linear_until_inv_a"][0], ana["linear_until"], "1/µm",
+    cmp.add("M_c1 linear in 1/a up to 1/a ≈", PAPER["linear_until_inv_a"].value, ana["linear_until"], "1/µm",
             f"first 1/a where M_c1 is > 5 % below the line fitted for 1/a ≤ {FIT_MAX_INV_A:g}"
             + ("" if math.isfinite(ana["linear_until"]) else " (not reached in this 1/a range)"))
     cmp.add("slope of M_c1(1/a), eq. (25) vs fit", e["slope_per_inverse_radius"], ana["slope"], "pN·µm²",
@@ -248,10 +251,10 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
             f"1/a ≤ {FIT_MAX_INV_A:g}")
     cmp.add("intercept of M_c1(1/a), eq. (25) vs fit", e["intercept"], ana["intercept"], "pN·µm",
             "paper column: −(B∥/C∥) F_c1 of eq. (25); ours: fit for 1/a ≤ 1")
-    cmp.add("M_c1 where F_c1 collapses (F_c1 at half its plateau)", PAPER["M_c1_quadratic"][0], ana["M_half"],
+    cmp.add("M_c1 where F_c1 collapses (F_c1 at half its plateau)", PAPER["M_c1_quadratic"].value, ana["M_half"],
             "pN·µm", "linear interpolation of the linear-stability points"
             + ("" if math.isfinite(ana["M_half"]) else " (F_c1 does not fall to half in this 1/a range)"))
-    cmp.add("torque where F_c1 → 0 (fit F_c1 = c(M*² − M_c1²))", PAPER["M_c1_quadratic"][0], ana["M_star"],
+    cmp.add("torque where F_c1 → 0 (fit F_c1 = c(M*² − M_c1²))", PAPER["M_c1_quadratic"].value, ana["M_star"],
             "pN·µm", f"fit over {ana['parabola_points']} points below 80 % of the plateau"
             if math.isfinite(ana["M_star"]) else "too few points in the collapse for a fit")
     if sims:

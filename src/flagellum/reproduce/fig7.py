@@ -22,7 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import PAPER, Comparison, Timer, mpl, save_figure, write_csv, write_h5
+from .._plot import pyplot
+from ..io import write_csv
+from ..paper import PAPER
+from .common import Comparison, Timer, save_figure, write_h5
 
 GRIDS = {"quick": dict(m_values=np.linspace(0, 20, 21), f_par_values=np.linspace(0, 120, 13),
                        inv_a_values=np.linspace(0, 5, 11)),
@@ -76,7 +79,7 @@ def collapse_torque(tab: dict) -> float:
 
 
 def plot(res, dots, quality, out_dir: Path):
-    plt = mpl()
+    plt = pyplot()
     rod, s = res.rod, res.surface
     fig = plt.figure(figsize=(13, 10))
     a = fig.add_subplot(2, 2, 1, projection="3d")
@@ -175,23 +178,23 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
         agree = max(rel) if rel else math.nan
     cmp = Comparison("fig7", "critical manifold of the helical rod and the force-torque relation", quality)
     cmp.add("anchored M_c1, rod theory with constant friction [paper: simulation ≈ 1.1]",
-            PAPER["M_c1"][0], a0["M"], "pN·µm", "compute_manifold: load-sphere ray at 1/a = 0")
+            PAPER["M_c1"].value, a0["M"], "pN·µm", "compute_manifold: load-sphere ray at 1/a = 0")
     cmp.add("anchored M_c1, rod theory with radius correction [paper: simulation ≈ 1.1]",
-            PAPER["M_c1"][0], a1["M"], "pN·µm", "same, R⁻¹ → R⁻¹ + M/(2A cos α)")
-    cmp.add("anchored F_c1, rod theory with constant friction", PAPER["F_c1"][0], a0["F"], "pN",
+            PAPER["M_c1"].value, a1["M"], "pN·µm", "same, R⁻¹ → R⁻¹ + M/(2A cos α)")
+    cmp.add("anchored F_c1, rod theory with constant friction", PAPER["F_c1"].value, a0["F"], "pN",
             "compute_manifold")
-    cmp.add("anchored F_c1, rod theory with radius correction", PAPER["F_c1"][0], a1["F"], "pN",
+    cmp.add("anchored F_c1, rod theory with radius correction", PAPER["F_c1"].value, a1["F"], "pN",
             "compute_manifold")
-    cmp.add("shoulder of the buckling curves (ridge of the manifold) at m̂ ≈", PAPER["ridge_m_hat"][0],
+    cmp.add("shoulder of the buckling curves (ridge of the manifold) at m̂ ≈", PAPER["ridge_m_hat"].value,
             ridge, "", "local minimum of the f̂⊥ = 75 buckling curve (grid step "
             f"{np.diff(s.m_hat)[0]:g})")
     cmp.add("theory vs filament for m̂ < 10 [paper: remarkable / quantitative agreement]", 0.0, agree, "",
             "largest relative difference of F_c (theory with radius correction) from the linear-"
             "stability F_c1 on the same load spheres, " + ", ".join(f"1/a = {p['inv_a']:g}" for p in low))
     cmp.add("torque of the collapse of F_c, theory (constant friction) [paper: simulation ≈ 4, theory "
-            "shifted to larger torque]", PAPER["M_c1_quadratic"][0], coll[False], "pN·µm",
+            "shifted to larger torque]", PAPER["M_c1_quadratic"].value, coll[False], "pN·µm",
             "F_c on the plane ∩ manifold at half its maximum")
-    cmp.add("torque of the collapse of F_c, theory (radius correction)", PAPER["M_c1_quadratic"][0],
+    cmp.add("torque of the collapse of F_c, theory (radius correction)", PAPER["M_c1_quadratic"].value,
             coll[True], "pN·µm", "same")
     cmp.note("Dimensionless theory in units A_eff/L0 = "
              f"{rod.torque_scale:.4f} pN·µm (torque) and A_eff/L0² = {rod.force_scale:.5f} pN (force).")

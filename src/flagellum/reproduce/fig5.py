@@ -32,6 +32,7 @@ from .._plot import pyplot
 from ..io import write_csv
 from ..paper import PAPER
 from .common import Comparison, Timer, pmap, save_figure, write_h5
+from .shared import Cache, rod_theory_curve
 
 INV_A = {"quick": (0.0, 0.5, 1.0, 2.0, 4.0, 10.0, 20.0),
          "full": (0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 8.0, 10.0,
@@ -39,41 +40,6 @@ INV_A = {"quick": (0.0, 0.5, 1.0, 2.0, 4.0, 10.0, 20.0),
 FIT_MAX_INV_A = 1.0
 #: simulations that check the linear-stability M_c1: (1/a values, ± fraction, simulated time)
 CONFIRM = {"quick": ((), 0.1, 1.0), "full": ((0.5, 1.0, 2.0, 3.0), 0.1, 1.0)}
-
-
-def _theory(inv_a, radius_correction=False):
-    from ..theory.manifold import HelicalRod, load_sphere_curve
-
-    rod = HelicalRod.from_params()
-    return load_sphere_curve(rod, list(inv_a), radius_correction=radius_correction).table()
-
-
-def _critical(job: dict) -> dict:
-    """M_c1 at one 1/a, the bracket widened around the theory's guess until λ changes sign."""
-    from ..analysis.stability import critical_torque
-    from ..errors import ParameterError
-    from ..motor import Boundary
-    from ..params import Params
-
-    inv_a, guess = job["inv_a"], job["guess"]
-    boundary = Boundary() if inv_a == 0 else Boundary(anchor="sphere", sphere_radius=1.0 / inv_a)
-    timer = Timer()
-    lo, hi = max(0.4, 0.8 * guess), 1.25 * guess
-    last = None
-    for _ in range(4):
-        try:
-            ct = critical_torque(Params(), boundary, bracket=(lo, hi), xtol=1e-3)
-            return {"inv_a": inv_a, "a": math.inf if inv_a == 0 else 1 / inv_a,
-                    "M_c1": ct.critical_torque, "F_c1": ct.critical_force, "omega": ct.omega,
-                    "velocity": ct.velocity, "chi_onset": ct.lab_frequency,
-                    "wall_seconds": timer.seconds}
-        except ParameterError as exc:
-            last = str(exc)
-            lo, hi = max(0.3, 0.7 * lo), 1.4 * hi
-        except Exception as exc:  # noqa: BLE001 - continuation failure: report and go on
-            last = str(exc)
-            break
-    return {"inv_a": inv_a, "error": last, "wall_seconds": timer.seconds}
 
 
 def _confirm(job: dict) -> dict:
@@ -190,22 +156,16 @@ def plot(ana, theory, crit0, quality, out_dir: Path, sims=()):
     return save_figure(fig, out_dir, "fig5")
 
 
-def compute(quality: str, context: dict | None = None) -> list[dict]:
-    context = {} if context is None else context
-    key = f"fig5_{quality}"
-    if key not in context:
-        inv = INV_A[quality]
-        guess = _theory(inv)["M"]
-        jobs = [{"inv_a": float(v), "guess": float(g) if math.isfinite(g) else 1.0 + v,
-                 "cost": float(g) if math.isfinite(g) else 5.0} for v, g in zip(inv, guess)]
-        context[key] = pmap(_critical, jobs)
-    return context[key]
+def compute(quality: str, cache: Cache | None = None) -> list[dict]:
+    """M_c1, F_c1 by linear stability at each 1/a of the quality (shared with Fig. 7)."""
+    cache = Cache() if cache is None else cache
+    return list(cache.load_sphere_thresholds(quality, INV_A[quality]).points)
 
 
-def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
+def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
     timer = Timer()
     out_dir.mkdir(parents=True, exist_ok=True)
-    points = compute(quality, context)
+    points = compute(quality, cache)
     anchored = next((p for p in points if p["inv_a"] == 0 and "error" not in p), None)
     F0 = anchored["F_c1"] if anchored else 1.0
     M0 = anchored["M_c1"] if anchored else math.nan
@@ -213,7 +173,7 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
     extra = np.array([6.0, 8.0, 10.0, 15.0, 20.0, 30.0, 50.0])
     dense = np.unique(np.concatenate([np.linspace(0, 5, 21), extra[extra <= max(INV_A[quality])],
                                       np.array(INV_A[quality])]))
-    theory = {rc: _theory(dense, rc) for rc in (False, True)}
+    theory = {rc: rod_theory_curve(dense, rc) for rc in (False, True)}
     sims = confirmations(points, quality)
     files = plot(ana, theory, M0, quality, out_dir, sims)
     cols = ("inv_a", "a", "M_c1", "F_c1", "omega", "velocity", "chi_onset", "wall_seconds", "error")

@@ -134,7 +134,8 @@ def plot(q: dict, quality: str, out_dir: Path):
     return save_figure(fig, out_dir, "fig6", f"Fig. 6: the helical rod of §4.1 (quality {quality})")
 
 
-def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
+def run(out_dir: Path, quality: str, cache=None) -> dict:
+    """Compute, plot and write the figure into ``out_dir`` (``cache`` unused: nothing shared)."""
     timer = Timer()
     out_dir.mkdir(parents=True, exist_ok=True)
     q = quantities()

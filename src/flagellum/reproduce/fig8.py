@@ -140,7 +140,8 @@ def _turn_variant(geom, turns):
     return (f"{name}, {turns:g} turns", *geom, 1.0, 1.0, turns * turn_length(*geom))
 
 
-def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
+def run(out_dir: Path, quality: str, cache=None) -> dict:
+    """Compute, plot and write the figure into ``out_dir`` (``cache`` unused: nothing shared)."""
     timer = Timer()
     out_dir.mkdir(parents=True, exist_ok=True)
     variants = VARIANTS[quality]

@@ -59,7 +59,7 @@ def no_work(monkeypatch):
     from flagellum.simulator import Simulator
 
     monkeypatch.setattr(Simulator, "_loop", _stop)  # simulate, demo, bench
-    monkeypatch.setattr(sweep, "_local_pool", _stop)
+    monkeypatch.setattr(sweep, "process_pool", _stop)
     monkeypatch.setattr(manifold, "compute_manifold", _stop)
     monkeypatch.setattr(stability, "_Branch", _stop)  # critical-torque
     monkeypatch.setattr(reproduce, "Timer", _stop)  # reproduce: after its checks

@@ -12,8 +12,9 @@ import pytest
 from conftest import assert_one_line_error
 
 from flagellum.cli import run
-from flagellum.reproduce import reproduce
-from flagellum.reproduce.common import Comparison, pixel_variance, write_csv
+from flagellum.reproduce import Cache, reproduce
+from flagellum.io import write_csv
+from flagellum.reproduce.common import Comparison, pixel_variance
 
 #: rows each comparison.md must contain (substrings of the quantity column)
 EXPECTED_ROWS = {
@@ -57,13 +58,13 @@ def check_outputs(out, fig):
 @pytest.fixture(scope="module")
 def shared():
     """Work shared between the figure tests (the Fig. 3/4 sweep, the Fig. 5/7 points)."""
-    return {}
+    return Cache()
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("fig", ["fig3", "fig4", "fig6", "fig7", "fig8"])
 def test_quick_target(fig, tmp_path, shared):
-    res = reproduce(fig, tmp_path, "quick", context=shared)
+    res = reproduce(fig, tmp_path, "quick", cache=shared)
     for key in HEADLINE[fig]:
         assert key in res
     check_outputs(tmp_path, fig)

@@ -19,8 +19,8 @@ from conftest import assert_one_line_error
 
 from flagellum.cli import run
 from flagellum.errors import ParameterError
-from flagellum.sweep import (VARIABLES, Sweep, parse_values, point_key, read_sweep, run_point,
-                             run_sweep)
+from flagellum.grid import parse_values
+from flagellum.sweep import VARIABLES, Sweep, point_key, read_sweep, run_point, run_sweep
 
 TINY = {"length": 2.0, "time": 0.005}
 GRID = {"torque": [-1.0, 0.5, 1.5, 2.5, 3.0, 4.0, 2000.0], "stretch_modulus": [1000.0, 0.01]}
@@ -227,7 +227,7 @@ def flaky(monkeypatch):
             raise SimulationError("injected CVODE failure")
         return real(self)
 
-    monkeypatch.setattr(engine, "_local_pool", pool)
+    monkeypatch.setattr(engine, "process_pool", pool)
     monkeypatch.setattr(engine.PointRun, "simulate", simulate)
     return calls
 

@@ -40,6 +40,34 @@ def atomic_write_text(path: str | Path, text: str) -> None:
         Path(tmp).write_text(text)
 
 
+def csv_text(columns: dict) -> str:
+    """``{name: values}`` as CSV text with a header line. Columns may differ in length (short
+    ones are padded with empty cells); floats are written with 10 significant digits (``nan``,
+    ``inf`` as such), ``None`` as an empty cell, other values as text with ``,`` → ``;``."""
+    names = list(columns)
+    cols = [list(np.atleast_1d(np.asarray(columns[k], dtype=object))) for k in names]
+    n = max((len(c) for c in cols), default=0)
+    lines = [",".join(names)]
+    for i in range(n):
+        row = []
+        for c in cols:
+            v = c[i] if i < len(c) else ""
+            if isinstance(v, (float, np.floating)):
+                row.append(f"{float(v):.10g}")
+            elif v is None:
+                row.append("")
+            else:
+                row.append(str(v).replace(",", ";"))
+        lines.append(",".join(row))
+    return "\n".join(lines) + "\n"
+
+
+def write_csv(path: str | Path, columns: dict) -> Path:
+    """Write :func:`csv_text` of ``columns`` to ``path`` atomically; returns the path."""
+    atomic_write_text(path, csv_text(columns))
+    return Path(path)
+
+
 # -- trajectories (HDF5) ----------------------------------------------------------------
 #
 # Crash safety: a trajectory file is never modified in place. While a run is going, each

@@ -30,19 +30,12 @@ Example
 
 from __future__ import annotations
 
-import concurrent.futures
 import itertools
 import json
-import logging
 import math
-import multiprocessing
-import os
 import sys
-import threading
 import time
-from contextlib import contextmanager
 from dataclasses import asdict, dataclass, fields
-from decimal import Decimal, InvalidOperation
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping
 
@@ -51,25 +44,13 @@ import numpy as np
 from . import io
 from .analysis.observables import Summary
 from .errors import FlagellumError, ParameterError
-from .params import Filament, Fluid, Params, positive, read_toml
+from .grid import MAX_POINTS, MODEL_PARAMETERS, PARAMETERS, canonical_name, convert, parse_values
+from .parallel import dask_pool, default_workers, process_pool
+from .params import Params, positive, read_toml
 
 if TYPE_CHECKING:
     from .motor import Boundary, Motor
     from .simulator import SolverOptions
-
-#: Sweepable parameters and their types: the model parameters (as in ``Params.from_flat``),
-#: motor, boundary, run length and solver settings.
-_MODEL: dict[str, type] = {
-    **{f.name: (str if f.name == "handedness" else float) for k in (Filament, Fluid) for f in fields(k)},
-    "friction": str, "gamma_par": float, "gamma_perp": float, "gamma_rot": float,
-}
-PARAMETERS: dict[str, type] = {
-    **_MODEL, "torque": float, "ramp_time": float,
-    "anchor": str, "sphere_radius": float, "hook": str, "hook_stiffness": float,
-    "time": float, "save_every": float, "average_from": float,
-    "thermal": bool, "seed": int, "method": str, "rtol": float, "dt": float,
-}
-ALIASES = {"t_end": "time"}
 
 #: Per-point variables of the dataset and their storage kinds.
 VARIABLES: dict[str, str] = {
@@ -83,89 +64,9 @@ _OPTIONAL = {"fallback", "swimming_speed"}
 FALLBACK_PARAMETERS = ("method", "rtol", "dt")
 _FILL = {"f8": math.nan, "i8": -1, "str": ""}
 FORMAT = "flagellum-sweep"
-MAX_POINTS = 1_000_000
 
 
-# -- parameter values -------------------------------------------------------------------
-
-
-def canonical_name(name: str) -> str:
-    """The parameter name as stored (``--sphere-radius`` → ``sphere_radius``, ``t_end`` → ``time``)."""
-    key = str(name).lstrip("-").replace("-", "_")
-    key = ALIASES.get(key, key)
-    if key not in PARAMETERS:
-        raise ParameterError("parameter", name, "a sweepable parameter (" + ", ".join(PARAMETERS) + ")")
-    return key
-
-
-def _convert(name: str, value: Any):
-    """One value of parameter ``name`` as its type (float, int, str, bool)."""
-    typ = PARAMETERS[name]
-    text = value.strip() if isinstance(value, str) else value
-    try:
-        if typ is str:
-            if not isinstance(text, str) or not text:
-                raise ValueError
-            return text
-        if typ is bool:
-            if isinstance(text, str) and text.lower() in ("true", "false"):
-                return text.lower() == "true"
-            if not isinstance(text, bool):
-                raise ValueError
-            return text
-        if isinstance(text, bool):
-            raise ValueError
-        if typ is int:
-            d = Decimal(text)
-            if not d.is_finite() or d != d.to_integral_value():
-                raise ValueError
-            return int(d)
-        v = float(text)
-        if not math.isfinite(v):
-            raise ValueError
-        return v
-    except (ValueError, TypeError, InvalidOperation):
-        kind = {float: "a finite number", int: "an integer", str: "a non-empty string",
-                bool: "true or false"}[typ]
-        raise ParameterError(name, value, kind) from None
-
-
-def _grid(name: str, text: str) -> list:
-    """Values of ``start:stop[:step]``; ``stop`` is included when it lies on the grid."""
-    parts = text.split(":")
-    try:
-        if len(parts) not in (2, 3) or PARAMETERS[name] not in (float, int):
-            raise InvalidOperation
-        start, stop, step = (Decimal(p.strip()) for p in parts + ["1"] * (3 - len(parts)))
-        if not all(x.is_finite() for x in (start, stop, step)) or step == 0 or (stop - start) * step < 0:
-            raise InvalidOperation
-        n = int((stop - start) / step) + 1
-    except (InvalidOperation, ArithmeticError):
-        raise ParameterError(name, text, "start:stop or start:stop:step of numbers, the step "
-                                         "nonzero and pointing from start to stop") from None
-    if n > MAX_POINTS:
-        raise ParameterError(name, text, f"a range of at most {MAX_POINTS} values")
-    return [_convert(name, start + i * step) for i in range(n)]
-
-
-def parse_values(name: str, spec: Any) -> tuple:
-    """Values of a parameter from ``"start:stop[:step]"``, ``"a,b,c"``, one value, or a list.
-
-    >>> len(parse_values("torque", "-2:6:0.25")), parse_values("seed", "1:3")
-    (33, (1, 2, 3))
-    """
-    name = canonical_name(name)
-    if isinstance(spec, str) and ":" in spec:
-        values = _grid(name, spec)
-    elif isinstance(spec, str):
-        values = [_convert(name, s) for s in spec.split(",")]
-    elif isinstance(spec, (list, tuple, np.ndarray)):
-        values = [_convert(name, s.item() if isinstance(s, np.generic) else s) for s in spec]
-    else:
-        values = [_convert(name, spec)]
-    if not values or len(set(values)) != len(values):
-        raise ParameterError(name, spec, "a non-empty list of distinct values")
-    return tuple(values)
+# -- grid points ------------------------------------------------------------------------
 
 
 def point_key(point: Mapping) -> str:
@@ -188,7 +89,7 @@ class Sweep:
         """Validate names and values; a range is a string (see :func:`parse_values`), a list
         or one value (an axis of length 1)."""
         rng = [(canonical_name(k), parse_values(k, v)) for k, v in (ranges or {}).items()]
-        fix = [(canonical_name(k), _convert(canonical_name(k), v)) for k, v in (fixed or {}).items()]
+        fix = [(canonical_name(k), convert(canonical_name(k), v)) for k, v in (fixed or {}).items()]
         names = [n for n, _ in rng + fix]
         dup = next((n for n in names if names.count(n) > 1), None)
         if dup is not None:
@@ -274,7 +175,7 @@ class PointRun:
         from .motor import Boundary, Motor
         from .simulator import SolverOptions
 
-        params = Params.from_flat({k: v[k] for k in _MODEL if k in v})
+        params = Params.from_flat({k: v[k] for k in MODEL_PARAMETERS if k in v})
         params.gammas  # noqa: B018 -- resolves (and so validates) the friction model
         motor = Motor(**{k: v[k] for k in ("torque", "ramp_time") if k in v})
         boundary = Boundary.from_flags(**{k: v[k] for k in ("anchor", "sphere_radius", "hook",
@@ -443,67 +344,6 @@ class _Store:
         return store
 
 
-# -- executors ----------------------------------------------------------------------------
-
-
-def _exit_with_parent(parent: int) -> None:
-    """Pool initializer: end the worker when the sweep process dies (e.g. killed)."""
-
-    def watch():
-        while os.getppid() == parent:
-            time.sleep(0.5)
-        os._exit(1)
-
-    threading.Thread(target=watch, daemon=True).start()
-
-
-@contextmanager
-def _local_pool(workers: int):
-    """Yield (submit, as_completed) of a spawn-started process pool, single-threaded BLAS."""
-    threads = {k: "1" for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
-               if k not in os.environ}
-    os.environ.update(threads)  # inherited by the spawned workers
-    pool = concurrent.futures.ProcessPoolExecutor(
-        workers, mp_context=multiprocessing.get_context("spawn"),
-        initializer=_exit_with_parent, initargs=(os.getpid(),))
-    ok = False
-    try:
-        yield pool.submit, concurrent.futures.as_completed
-        ok = True
-    finally:
-        pool.shutdown(wait=ok, cancel_futures=True)
-        for k in threads:
-            os.environ.pop(k, None)
-
-
-@contextmanager
-def _dask(scheduler: str | None, dask_local: int | None):
-    """Yield (submit, as_completed) of a dask client: at ``scheduler`` or on a local cluster."""
-    where = scheduler if scheduler is not None else f"dask-local {dask_local}"
-    try:
-        import distributed
-    except ImportError:
-        raise ParameterError("scheduler", where, "usable: install dask[distributed] "
-                                                 "(pip install 'flagellum[dist]')") from None
-    cluster = client = None
-    try:
-        if dask_local is not None:
-            cluster = distributed.LocalCluster(n_workers=dask_local, threads_per_worker=1,
-                                               processes=True, host="127.0.0.1",
-                                               dashboard_address=None, silence_logs=logging.ERROR)
-        try:
-            client = distributed.Client(cluster if cluster is not None else scheduler, timeout=15)
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise ParameterError("scheduler", where,
-                                 f"a reachable dask scheduler ({_one_line(exc)})") from None
-        yield (lambda fn, arg: client.submit(fn, arg, pure=False)), distributed.as_completed
-    finally:
-        if client is not None:
-            client.close()
-        if cluster is not None:
-            cluster.close()
-
-
 # -- running ------------------------------------------------------------------------------
 
 
@@ -515,7 +355,7 @@ def _check_fallback(sweep: Sweep, fallback: Mapping | None) -> dict:
         if key not in FALLBACK_PARAMETERS or key in sweep.dims:
             raise ParameterError("fallback", name, "one of " + ", ".join(FALLBACK_PARAMETERS)
                                  + " (solver settings that are not swept)")
-        out[key] = _convert(key, value)
+        out[key] = convert(key, value)
     if out:
         from .simulator import SolverOptions
 
@@ -555,7 +395,8 @@ def run_sweep(sweep: Sweep, out: str | Path, *, resume: bool = False, overwrite:
     resume : keep the finished points of an existing ``out`` (same fixed parameters and
         swept names; the new ranges must contain them) and compute only the others.
     overwrite : replace an existing ``out`` (otherwise an error, unless ``resume``).
-    workers : size of the local process pool (default ``os.cpu_count()``).
+    workers : size of the local process pool (default
+        :func:`flagellum.parallel.default_workers`: ``FLAGELLUM_WORKERS`` or the CPU count).
     scheduler : address of a ``dask.distributed`` scheduler, e.g. ``tcp://host:8786``.
     dask_local : start a local dask cluster of this many single-threaded worker processes.
     progress : tqdm bar on stderr (default: when stderr is a terminal).
@@ -594,8 +435,8 @@ def run_sweep(sweep: Sweep, out: str | Path, *, resume: bool = False, overwrite:
     else:
         from tqdm import tqdm
 
-        executor = (_local_pool(min(workers or os.cpu_count() or 1, len(tasks)))
-                    if scheduler is None and dask_local is None else _dask(scheduler, dask_local))
+        executor = (process_pool(min(workers or default_workers(), len(tasks)))
+                    if scheduler is None and dask_local is None else dask_pool(scheduler, dask_local))
         show = sys.stderr.isatty() if progress is None else progress
         with executor as (submit, as_completed), \
                 tqdm(total=sweep.size, initial=sweep.size - len(tasks), unit="pt", desc="sweep",
@@ -626,5 +467,5 @@ def run_sweep(sweep: Sweep, out: str | Path, *, resume: bool = False, overwrite:
                        lost=lost, retried=retried, output=str(out), wall_seconds=time.perf_counter() - t0)
 
 
-__all__ = ["FALLBACK_PARAMETERS", "PARAMETERS", "VARIABLES", "Sweep", "SweepData", "SweepReport", "PointRun",
-           "canonical_name", "parse_values", "point_key", "read_sweep", "run_point", "run_sweep"]
+__all__ = ["FALLBACK_PARAMETERS", "VARIABLES", "Sweep", "SweepData", "SweepReport", "PointRun",
+           "point_key", "read_sweep", "run_point", "run_sweep"]

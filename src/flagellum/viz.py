@@ -10,14 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-
-def _mpl():
-    import matplotlib
-
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-
-    return plt
+from ._plot import pyplot
 
 
 def curvature(positions: np.ndarray) -> np.ndarray:
@@ -67,7 +60,7 @@ def movie(t: np.ndarray, positions: np.ndarray, path: str | Path, fps: int = 20,
     """Write an MP4 of the trajectory; returns the number of frames written."""
     import imageio.v2 as imageio
 
-    plt = _mpl()
+    plt = pyplot()
     idx = np.linspace(0, len(t) - 1, min(max_frames, len(t))).round().astype(int)
     lim = _limits(positions[idx])
     fig = plt.figure(figsize=(4.8, 6.4), dpi=80)
@@ -89,7 +82,7 @@ def movie(t: np.ndarray, positions: np.ndarray, path: str | Path, fps: int = 20,
 def snapshots(t: np.ndarray, positions: np.ndarray, out_dir: str | Path, count: int = 4,
               title: str = "") -> list[Path]:
     """PNG snapshots at ``count`` evenly spaced times."""
-    plt = _mpl()
+    plt = pyplot()
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     idx = np.linspace(0, len(t) - 1, count).round().astype(int)
@@ -108,7 +101,7 @@ def snapshots(t: np.ndarray, positions: np.ndarray, out_dir: str | Path, count: 
 
 def time_series_figure(runs: dict, path: str | Path) -> None:
     """Thrust and end-to-end distance versus time for several labelled trajectories."""
-    plt = _mpl()
+    plt = pyplot()
     fig, axes = plt.subplots(2, 1, figsize=(6.4, 5.6), sharex=True)
     for label, tr in runs.items():
         axes[0].plot(tr.t, tr.thrust, label=label)

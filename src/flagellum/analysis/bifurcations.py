@@ -24,23 +24,25 @@ the step.
 
 from __future__ import annotations
 
-import concurrent.futures
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from ..errors import ParameterError
+from ..grid import parse_values
 from ..motor import Boundary
+from ..paper import PAPER
+from ..parallel import process_pool, serial_pool
 from ..params import Params, check_choice, check_range, positive
 from .regimes import decide, measure
 
 #: per quality: scan torques (lo, hi, step) [pN·µm], simulated time after the step [s], tol
-QUALITIES = {
+SCAN_SETTINGS = {
     "quick": {"torques": (3.0, 5.5, 0.5), "t_end": 0.3, "tol": 0.1},
     "full": {"torques": (2.5, 5.5, 0.25), "t_end": 0.8, "tol": 0.025},
 }
-PAPER = {"M_c1": 1.1, "M_c2": 4.2}  #: §3.1.1, Fig. 3 caption [pN·µm]
+#: the paper's thresholds [pN·µm] (:data:`flagellum.paper.PAPER`)
+PAPER_THRESHOLDS = {k: PAPER[k].value for k in ("M_c1", "M_c2")}
 LOWER, UPPER = "buckled", "oscillating"  #: the regimes on either side of M_c2
 MAX_ROUNDS = 12
 
@@ -113,24 +115,9 @@ def _failed(torque, direction, exc) -> dict:
             "error": f"{type(exc).__name__}: {exc}"[:300]}
 
 
-@contextmanager
 def _executor(workers: int):
-    """(submit, as_completed): in-process for one worker, else the sweep engine's pool."""
-    if workers <= 1:
-        def submit(fn, arg):
-            fut = concurrent.futures.Future()
-            try:
-                fut.set_result(fn(arg))
-            except Exception as exc:  # noqa: BLE001 - delivered through the future
-                fut.set_exception(exc)
-            return fut
-
-        yield submit, concurrent.futures.as_completed
-    else:
-        from ..sweep import _local_pool
-
-        with _local_pool(workers) as pair:
-            yield pair
+    """(submit, as_completed): in this process for one worker, else a process pool."""
+    return serial_pool() if workers <= 1 else process_pool(workers)
 
 
 class _Runner:
@@ -267,10 +254,8 @@ def critical(params: Params, boundary: Boundary, xtol: float = 1e-3) -> dict:
 # -- the whole analysis -------------------------------------------------------------------
 def scan_torques(quality: str = "quick", torque_range: str | None = None) -> tuple[float, ...]:
     """Torques of the coarse scan: ``lo:hi`` (the quality's step) or ``lo:hi:step``."""
-    from ..sweep import parse_values
-
-    check_choice("quality", quality, tuple(QUALITIES))
-    lo, hi, step = QUALITIES[quality]["torques"]
+    check_choice("quality", quality, tuple(SCAN_SETTINGS))
+    lo, hi, step = SCAN_SETTINGS[quality]["torques"]
     text = torque_range if torque_range is not None else f"{lo}:{hi}:{step}"
     parts = str(text).split(":")
     if len(parts) == 2:
@@ -298,7 +283,7 @@ def bifurcations(params: Params | None = None, boundary: Boundary | None = None,
     """
     wall0 = time.perf_counter()
     params, boundary = params or Params(), boundary or Boundary()
-    q = QUALITIES[check_choice("quality", quality, tuple(QUALITIES))]
+    q = SCAN_SETTINGS[check_choice("quality", quality, tuple(SCAN_SETTINGS))]
     torques = scan_torques(quality, torque_range)
     t_end = positive("t_end", q["t_end"] if t_end is None else t_end, 100.0)
     tol = positive("tol", q["tol"] if tol is None else tol, 10.0)
@@ -309,7 +294,7 @@ def bifurcations(params: Params | None = None, boundary: Boundary | None = None,
     simulate = simulate or RunConfig(params, boundary, t_end)
 
     out = {"quality": quality, "sphere_radius": boundary.sphere_radius, "t_end": t_end, "tol": tol,
-           "scan_torques": list(torques), "paper": PAPER}
+           "scan_torques": list(torques), "paper": PAPER_THRESHOLDS}
     from tqdm import tqdm
 
     n_chain = len(torques) if hysteresis and mc2 else 0
@@ -354,5 +339,5 @@ def bifurcations(params: Params | None = None, boundary: Boundary | None = None,
     return out
 
 
-__all__ = ["QUALITIES", "RunConfig", "bifurcations", "bracket", "continuation", "critical",
+__all__ = ["SCAN_SETTINGS", "RunConfig", "bifurcations", "bracket", "continuation", "critical",
            "refine", "scan_torques"]

@@ -6,7 +6,7 @@ import sys
 
 import click
 
-from ..analysis.bifurcations import QUALITIES
+from ..analysis.bifurcations import SCAN_SETTINGS
 from ._options import boundary_from_cli, boundary_options, param_options, params_from_cli
 from ._output import emit_json, emit_table, write_json
 
@@ -18,7 +18,7 @@ from ._output import emit_json, emit_table, write_json
               help="torques of the coarse M_c2 scan [pN·µm] (default quick 3:5.5:0.5, full 2.5:5.5:0.25)")
 @click.option("--t-end", type=float, default=None,
               help="simulated time per run after the torque step [s] (default quick 0.3, full 0.8)")
-@click.option("--quality", type=click.Choice(list(QUALITIES)), default="quick", show_default=True)
+@click.option("--quality", type=click.Choice(list(SCAN_SETTINGS)), default="quick", show_default=True)
 @click.option("--tol", type=float, default=None,
               help="stop bisecting when the M_c2 bracket is this narrow [pN·µm] (default quick 0.1, full 0.025)")
 @click.option("--hysteresis", is_flag=True,

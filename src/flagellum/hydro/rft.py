@@ -125,11 +125,17 @@ def critical_torque_line(coeffs: dict, critical_force: float, viscosity: float) 
             "slope_per_inverse_radius": (C - A * B / C) * critical_force / (6 * math.pi * viscosity)}
 
 
-def effective_bending_rigidity(helix: Helix, bend_rigidity: float, twist_rigidity: float) -> float:
-    """App. C, eq. (C.4): 1/A_eff = (1 + sin²α + (A/C) cos²α) / (2 A sin α)."""
-    a = helix.pitch_angle
+def effective_bending_rigidity(helix: Helix | float | np.ndarray, bend_rigidity: float,
+                               twist_rigidity: float):
+    """App. C, eq. (C.4): 1/A_eff = (1 + sin²α + (A/C) cos²α) / (2 A sin α).
+
+    ``helix`` is a :class:`Helix` or its pitch angle α [rad]; an array of angles gives an
+    array of A_eff.
+    """
+    a = helix.pitch_angle if isinstance(helix, Helix) else helix
+    sin, cos = (np.sin, np.cos) if isinstance(a, np.ndarray) else (math.sin, math.cos)
     A, C = bend_rigidity, twist_rigidity
-    return 2 * A * math.sin(a) / (1 + math.sin(a) ** 2 + A / C * math.cos(a) ** 2)
+    return 2 * A * sin(a) / (1 + sin(a) ** 2 + A / C * cos(a) ** 2)
 
 
 @dataclass(frozen=True)

@@ -15,16 +15,18 @@ import importlib
 from pathlib import Path
 
 from .common import FIGURES, QUALITIES, Timer, check_quality
+from .shared import Cache
 
 TARGETS = FIGURES + ("all",)
 
 
 def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality: str = "quick",
-              context: dict | None = None, echo=None) -> dict:
+              cache: Cache | None = None, echo=None) -> dict:
     """Run one figure (``"fig3"`` … ``"fig8"``) or ``"all"``; returns the headline numbers.
 
-    ``context`` caches work shared between figures (the simulation sweep of Fig. 3/4, the
-    critical points of Fig. 5/7) when several run in one process.
+    ``cache`` (:class:`.shared.Cache`) holds work shared between figures (the simulation
+    sweep of Fig. 3/4, the critical points of Fig. 5/7) when several run in one process.
+    Each figure module runs as compute → analyse → plot → write (its ``run``).
     """
     from ..errors import ParameterError
 
@@ -34,9 +36,9 @@ def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality:
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ParameterError("out", str(out), "a directory")
-    context = {} if context is None else context
+    cache = Cache() if cache is None else cache
     if echo:
-        context["log"] = True
+        cache.log = True
     targets = FIGURES if target == "all" else (target,)
     result, timer = {}, Timer()
     for fig in targets:
@@ -44,7 +46,7 @@ def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality:
             echo(f"reproducing {fig} ({quality}) …")
         mod = importlib.import_module(f".{fig}", __name__)
         t = Timer()
-        result[fig] = mod.run(out / fig, quality, context)
+        result[fig] = mod.run(out / fig, quality, cache)
         if echo:
             echo(f"  {fig} done in {t.seconds:.1f} s → {out / fig}")
     if target != "all":
@@ -65,4 +67,4 @@ def _write_index(out: Path, result: dict, quality: str, seconds: float) -> None:
     atomic_write_text(out / "comparison.md", "\n".join(parts))
 
 
-__all__ = ["reproduce", "TARGETS", "FIGURES", "QUALITIES"]
+__all__ = ["reproduce", "Cache", "TARGETS", "FIGURES", "QUALITIES"]

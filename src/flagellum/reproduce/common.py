@@ -1,56 +1,37 @@
 """Shared machinery of ``flagellum reproduce``: qualities, output files, the comparison
-table, a process pool, and the simulation of one torque (used by Fig. 3 and Fig. 4).
+table, the process pool of the figures, and the simulation of one torque (Fig. 3 and Fig. 4).
 
-Figure numbers are those of issue 8; the TeX source (which also counts the sketches) labels
-them as follows:
+The targets are named fig3 … fig8; the printed article numbers its figures with the
+sketches (and the TeX source labels them):
 
-=====  ======================================================  ==========================
-fig    content                                                 label in the TeX source
-=====  ======================================================  ==========================
-fig3   thrust F(M), F(t) in the four regimes, tangent tip      ``fig: RotStat``
-fig4   λ, ω and χ, ⟨r⟩/L0, σ/σ0 (with thermal points)          ``fig: RotStatII``
-fig5   M_c1(1/a) and F_c1(M_c1) with a load sphere              ``fig: dynamic``
-fig6   the helical rod of the theory (L0, A_eff, loads)         (unlabelled sketch, §4.1)
-fig7   critical manifold, buckling curves, plane ∩ manifold     ``fig: buckling theory``
-fig8   master curve of the reorientation rate (App. C)          ``fig: compare reorientation rate``
-=====  ======================================================  ==========================
+=====  ====================================================  ===========  ======================
+fig    content                                               printed      label in the TeX source
+=====  ====================================================  ===========  ======================
+fig3   thrust F(M), F(t) in the four regimes, tangent tip    Fig. 5       ``fig: RotStat``
+fig4   λ, ω and χ, ⟨r⟩/L0, σ/σ0 (with thermal points)        Fig. 6       ``fig: RotStatII``
+fig5   M_c1(1/a) and F_c1(M_c1) with a load sphere           Fig. 7       ``fig: dynamic``
+fig6   the helical rod of the theory (L0, A_eff, loads)      Fig. 8       (unlabelled, Sec. 4.1)
+fig7   critical manifold, buckling curves, plane ∩ manifold  Fig. 9       ``fig: buckling theory``
+fig8   master curve of the reorientation rate (App. C)       Fig. 11      ``fig: compare reorientation rate``
+=====  ====================================================  ===========  ======================
 """
 
 from __future__ import annotations
 
 import math
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from .. import parallel
+from .._plot import pyplot
+from ..analysis.regimes import SIGMA_IV
 from ..errors import ParameterError
 
 QUALITIES = ("quick", "full")
 FIGURES = ("fig3", "fig4", "fig5", "fig6", "fig7", "fig8")
-
-#: Numbers the paper states (value, unit, where).
-PAPER = {
-    "M_c1": (1.1, "pN·µm", "§3.1, Fig. 3 caption"),
-    "M_c2": (4.2, "pN·µm", "§3.1, Fig. 3 caption"),
-    "sigma_equipartition": (0.15, "", "§3.1.2"),
-    "sigma_simulated": (0.18, "", "§3.1.2"),
-    "F_c1": (1.0, "pN", "§3.2, §5"),
-    "linear_until_inv_a": (2.5, "1/µm", "§3.2"),
-    "M_c1_quadratic": (4.0, "pN·µm", "§3.2"),
-    "persistence_length": (1000.0, "µm", "§3.1.2"),
-    "ridge_m_hat": (15.0, "", "§4.2"),
-    "compression": (0.02, "", "§4.2"),
-    "sin_alpha_mono": (0.75, "", "§5"),
-    "force_increase_mono": (0.10, "", "§5"),
-    "gamma_par": (1.6e-3, "pN·s/µm²", "§2.4"),
-    "gamma_perp": (2.8e-3, "pN·s/µm²", "§2.4"),
-    "gamma_rot": (1.26e-6, "pN·s", "§2.4"),
-    "turns": (4.0, "", "§2.4"),
-    "strain": (0.015, "", "§2.1"),
-}
 
 
 def check_quality(quality: str) -> str:
@@ -59,54 +40,25 @@ def check_quality(quality: str) -> str:
     return quality
 
 
-def n_workers() -> int:
-    """Processes for independent runs: at most 2 (the reference machine has 2 cores)."""
-    env = os.environ.get("FLAGELLUM_WORKERS")
-    if env:
-        try:
-            return max(1, int(env))
-        except ValueError:
-            pass
-    return max(1, min(2, os.cpu_count() or 1))
+def job_cost(job) -> float:
+    """Estimated cost of a job: its ``cost`` key (0 without one)."""
+    return float(job.get("cost", 0.0)) if isinstance(job, dict) else 0.0
 
 
 def pmap(fun, items: list, workers: int | None = None) -> list:
-    """``[fun(x) for x in items]`` on a process pool (serial for one worker or one item).
-
-    Jobs are submitted longest first when the items carry a ``cost`` key, so that two
-    workers finish together.
-    """
-    items = list(items)
-    workers = n_workers() if workers is None else workers
-    if workers <= 1 or len(items) <= 1:
-        return [fun(x) for x in items]
-    from concurrent.futures import ProcessPoolExecutor
-
-    order = sorted(range(len(items)), key=lambda k: -float(items[k].get("cost", 0.0))
-                   if isinstance(items[k], dict) else 0.0)
-    out = [None] * len(items)
-    with ProcessPoolExecutor(max_workers=min(workers, len(items))) as pool:
-        futs = {k: pool.submit(fun, items[k]) for k in order}
-        for k, f in futs.items():
-            out[k] = f.result()
-    return out
+    """``[fun(x) for x in items]`` on the process pool of :func:`flagellum.parallel.pmap`:
+    at most 2 workers by default (the reference machine has 2 cores; ``FLAGELLUM_WORKERS``
+    overrides it), the jobs with the largest ``cost`` key first, so that they finish together."""
+    return parallel.pmap(fun, items, parallel.default_workers(2) if workers is None else workers,
+                         cost=job_cost)
 
 
 # -- output files -----------------------------------------------------------------------------
-def mpl():
-    import matplotlib
-
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
 def save_figure(fig, out_dir: Path, name: str, title: str | None = None,
                 tight: bool = True) -> list[Path]:
     """Write ``name.png`` (150 dpi) and ``name.pdf`` (after an optional suptitle and, with
     ``tight``, a tight layout); close the figure."""
-    plt = mpl()
+    plt = pyplot()
     if title is not None:
         fig.suptitle(title, fontsize=10)
     if tight:
@@ -117,29 +69,6 @@ def save_figure(fig, out_dir: Path, name: str, title: str | None = None,
     fig.savefig(paths[1], bbox_inches="tight")
     plt.close(fig)
     return paths
-
-
-def write_csv(path: Path, columns: dict) -> Path:
-    """Columns of equal length (numbers or strings) as CSV with a header line."""
-    from ..io import atomic_write_text
-
-    names = list(columns)
-    cols = [list(np.atleast_1d(np.asarray(columns[k], dtype=object))) for k in names]
-    n = max((len(c) for c in cols), default=0)
-    lines = [",".join(names)]
-    for i in range(n):
-        row = []
-        for c in cols:
-            v = c[i] if i < len(c) else ""
-            if isinstance(v, (float, np.floating)):
-                row.append(f"{float(v):.10g}" if math.isfinite(v) else str(float(v)))
-            elif v is None:
-                row.append("")
-            else:
-                row.append(str(v).replace(",", ";"))
-        lines.append(",".join(row))
-    atomic_write_text(path, "\n".join(lines) + "\n")
-    return path
 
 
 def write_h5(path: Path, groups: dict, attrs: dict | None = None) -> Path:
@@ -268,9 +197,6 @@ class Timer:
 
 # -- simulation of one torque (Fig. 3, Fig. 4) ------------------------------------------------
 REGIME_LABELS = {"reorienting": "(i)", "aligned": "(ii)", "buckled": "(iii)", "oscillating": "(iv)"}
-#: σ/σ0 above which a buckled state counts as regime (iv); the classifier's own threshold
-#: (σ > σ0) sits exactly at the largest σ of regime (iii), where we measure σ/σ0 ≈ 1.03–1.05
-SIGMA_IV = 1.5
 #: running-mean window [s] that separates the fast (compressional) part of σ
 FAST_WINDOW = 0.01
 
@@ -367,5 +293,5 @@ def simulate_point(spec: dict) -> dict:
     return out
 
 
-__all__ = ["QUALITIES", "FIGURES", "PAPER", "Comparison", "check_quality", "pmap",
-           "save_figure", "write_csv", "write_h5", "simulate_point", "pixel_variance"]
+__all__ = ["QUALITIES", "FIGURES", "Comparison", "check_quality", "job_cost", "pmap",
+           "save_figure", "write_h5", "simulate_point", "pixel_variance"]

@@ -8,7 +8,7 @@ Method
   the paper's protocol (§3.1.2): rotate at M = 1 pN·µm, then step to M (within 0.01 s).
   Observables are averaged over the last half of the run (after the step).
 * Regime of each run: :func:`flagellum.analysis.regimes.classify`, with regime (iv)
-  required to have σ/σ0 > 1.5 (see :data:`.common.SIGMA_IV`).
+  required to have σ/σ0 > 1.5 (see :data:`flagellum.analysis.regimes.SIGMA_IV`).
 * M_c1 from the linear stability of the aligned state (root of λ(M),
   :func:`flagellum.analysis.stability.critical_torque`); from the simulations we report the
   bracket between the last aligned and the first buckled torque and, with two or more
@@ -23,70 +23,41 @@ Method
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .common import (PAPER, REGIME_LABELS, Comparison, Timer, mpl, pmap, save_figure,
-                     simulate_point, write_csv, write_h5)
+from .._plot import pyplot
+from ..io import write_csv
+from ..paper import PAPER
+from .common import REGIME_LABELS, Comparison, Timer, save_figure, write_h5
+from .shared import PANEL_TORQUES, REGIME_COLORS, Cache
 
-#: (torque, simulated time [s]) of the sweep; protocol and frame follow from the torque
-SWEEPS = {
-    "quick": ((-1.0, 0.15), (-0.5, 0.15), (0.5, 0.15), (1.0, 0.6), (1.3, 0.6), (1.6, 0.4),
-              (2.5, 0.3), (3.5, 0.3), (4.5, 0.3)),
-    "full": ((-1.0, 0.3), (-0.75, 0.3), (-0.5, 0.3), (-0.25, 0.3), (0.25, 0.3), (0.5, 0.3),
-             (0.75, 0.3), (1.0, 0.5), (1.1, 4.0), (1.2, 2.0), (1.3, 1.2), (1.4, 0.9), (1.6, 0.6),
-             (1.8, 0.5), (2.0, 0.45), (2.5, 0.45), (3.0, 0.45), (3.5, 0.45), (3.7, 0.45),
-             (3.9, 0.45), (4.0, 0.45), (4.1, 0.45), (4.2, 0.45), (4.3, 0.45), (4.4, 0.45),
-             (4.5, 0.45), (4.6, 0.45), (5.0, 0.45)),
-}
-#: torques from this value on follow the paper's protocol (start aligned at M = 1, then
-#: step); below it the runs start from the stress-free helix, whose start-up transient
-#: seeds the buckling instability faster than the tiny perturbation left after a step
-STEP_FROM = 2.0
 #: buckled runs up to this torque enter the Hopf extrapolation (amplitude² ∝ M − M_c1 holds
 #: only near onset; at 1.3 and 1.6 it already gives 0.91 instead of 1.07)
 HOPF_MAX = 1.45
-#: torques shown in panels (b) and (c), as in the paper's caption (quick: (iii) at 1.6,
-#: because at 1.2 the buckled state needs ≈ 1.5 s to develop)
-PANEL_TORQUES = {"quick": {"(i)": -1.0, "(ii)": 1.0, "(iii)": 1.6, "(iv)": 4.5},
-                 "full": {"(i)": -1.0, "(ii)": 1.0, "(iii)": 1.2, "(iv)": 4.5}}
-COLORS = {"reorienting": "tab:green", "aligned": "tab:blue", "buckled": "tab:orange",
-          "oscillating": "tab:red"}
 
 
-def sweep_specs(quality: str, log: bool = False) -> list[dict]:
-    shown = set(PANEL_TORQUES[quality].values())
-    specs = []
-    for M, t_end in SWEEPS[quality]:
-        step = M >= STEP_FROM
-        specs.append({"torque": M, "t_end": t_end + (0.06 if step else 0.0),
-                      "protocol": "step" if step else "rest",
-                      "frame": "lab" if M >= 2.0 else "auto", "series": M in shown,
-                      "cost": t_end * (60.0 if M > 1.05 else 3.0), "log": log})
-    return specs
+@dataclass(frozen=True)
+class Fig3Data:
+    """What Fig. 3 is drawn from: the sweep, the anchored threshold and the RFT slopes."""
+
+    points: tuple[dict, ...]
+    crit: dict            #: :class:`~.shared.AnchoredThreshold` values
+    rft: dict             #: F/M [1/µm]: ``pinned`` rigid helix and ``full_turn`` −C∥/B∥
 
 
-def run_sweep(quality: str, context: dict | None = None) -> list[dict]:
-    """The deterministic sweep of Fig. 3 and Fig. 4(b–d), cached in ``context``."""
-    context = {} if context is None else context
-    key = f"sweep_{quality}"
-    if key not in context:
-        context[key] = pmap(simulate_point, sweep_specs(quality, bool(context.get("log"))))
-    return context[key]
-
-
-def stability_critical(context: dict | None = None) -> dict:
-    """M_c1, F_c1 of the anchored filament from linear stability (cached)."""
-    from ..analysis.stability import critical_torque
+def compute(quality: str, cache: Cache | None = None) -> Fig3Data:
+    """The deterministic sweep and M_c1 (shared with Fig. 4 through ``cache``), the RFT lines."""
+    from ..hydro.rft import rft_summary
     from ..params import Params
 
-    context = {} if context is None else context
-    if "critical_anchored" not in context:
-        t = Timer()
-        ct = critical_torque(Params())
-        context["critical_anchored"] = {**ct.to_dict(), "wall_seconds": t.seconds}
-    return context["critical_anchored"]
+    cache = Cache() if cache is None else cache
+    summ = rft_summary(Params())
+    rft = {"pinned": float(summ["pinned"]["thrust_per_torque"]),
+           "full_turn": float(summ["thrust_per_torque"])}
+    return Fig3Data(cache.sweep(quality).points, cache.anchored_threshold().values, rft)
 
 
 def analyse(points: list[dict], quality: str) -> dict:
@@ -122,7 +93,7 @@ def analyse(points: list[dict], quality: str) -> dict:
 
 
 def plot(points, ana, rft, crit, quality, out_dir: Path):
-    plt = mpl()
+    plt = pyplot()
     from matplotlib.gridspec import GridSpec
 
     fig = plt.figure(figsize=(15, 8.5))
@@ -134,7 +105,7 @@ def plot(points, ana, rft, crit, quality, out_dir: Path):
     ax.plot(Ms, rft["full_turn"] * Ms, "r:", lw=1.2, label=f"RFT, full turns −C∥/B∥ ({rft['full_turn']:.3f} M)")
     done = set()
     for p in ok:
-        c = COLORS[p["regime"]]
+        c = REGIME_COLORS[p["regime"]]
         lab = f"{REGIME_LABELS[p['regime']]} {p['regime']}"
         ax.plot(p["torque"], p["thrust_mean"], "o", color=c, label=None if lab in done else lab + " (mean)")
         done.add(lab)
@@ -166,11 +137,11 @@ def plot(points, ana, rft, crit, quality, out_dir: Path):
             continue
         s = p["series"]
         sel = s["t"] >= p["t_from"]
-        axb.plot(s["t"][sel] - s["t"][sel][0], s["thrust"][sel], color=COLORS[p["regime"]], lw=0.8)
+        axb.plot(s["t"][sel] - s["t"][sel][0], s["thrust"][sel], color=REGIME_COLORS[p["regime"]], lw=0.8)
         axb.set_ylabel("F [pN]")
         axb.set_title(f"(b) {lab} M = {p['torque']:g} pN·µm: {p['regime']}", fontsize=9)
         u = s["hook_tangent"][sel]
-        axc.plot(u[:, 0], u[:, 1], color=COLORS[p["regime"]], lw=0.7)
+        axc.plot(u[:, 0], u[:, 1], color=REGIME_COLORS[p["regime"]], lw=0.7)
         axc.set_aspect("equal", adjustable="datalim")
         axc.set_title(f"(c) {lab} tip of first tangent", fontsize=9)
         axc.set_ylabel("$t_y$")
@@ -180,21 +151,10 @@ def plot(points, ana, rft, crit, quality, out_dir: Path):
     return save_figure(fig, out_dir, "fig3", tight=False)
 
 
-def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
-    from ..hydro.rft import rft_summary
-    from ..params import Params
-
-    timer = Timer()
-    context = {} if context is None else context
-    out_dir.mkdir(parents=True, exist_ok=True)
-    points = run_sweep(quality, context)
-    crit = stability_critical(context)
-    summ = rft_summary(Params())
-    rft = {"pinned": float(summ["pinned"]["thrust_per_torque"]),
-           "full_turn": float(summ["thrust_per_torque"])}
-    ana = analyse(points, quality)
-    files = plot(points, ana, rft, crit, quality, out_dir)
-
+def write(out_dir: Path, data: Fig3Data, quality: str) -> list[Path]:
+    """``sweep.csv``, one CSV per time series shown and ``fig3.h5``."""
+    points = data.points
+    files = []
     cols = ("torque", "t_end", "protocol", "frame", "solver", "regime", "thrust_mean", "thrust_min",
             "thrust_max", "thrust_std", "omega", "chi", "r_mean", "r_std", "r_over_L0",
             "sigma_over_sigma0", "hook_tilt_max_deg", "wall_seconds", "error")
@@ -216,20 +176,25 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
                                 "end_to_end": s["r"]}))
         groups[name] = {"t": s["t"], "thrust": s["thrust"], "hook_tangent": s["hook_tangent"], "r": s["r"]}
     files.append(write_h5(out_dir / "fig3.h5", groups, {"quality": quality}))
+    return files
 
+
+def compare(data: Fig3Data, ana: dict, quality: str) -> Comparison:
+    """The comparison table of ``comparison.md``."""
+    points, crit, rft = data.points, data.crit, data.rft
     cmp = Comparison("fig3", "thrust versus torque, regimes, buckling thresholds", quality)
-    cmp.add("M_c1 (first buckling, supercritical Hopf)", PAPER["M_c1"][0], crit["critical_torque"],
+    cmp.add("M_c1 (first buckling, supercritical Hopf)", PAPER["M_c1"].value, crit["critical_torque"],
             "pN·µm", "linear stability of the aligned state: root of λ(M) (critical_torque, N = 50)")
     lo, hi = ana["mc1_bracket"]
-    cmp.add("M_c1 from the simulation sweep (midpoint)", PAPER["M_c1"][0], ana["M_c1_sim"], "pN·µm",
+    cmp.add("M_c1 from the simulation sweep (midpoint)", PAPER["M_c1"].value, ana["M_c1_sim"], "pN·µm",
             f"last aligned torque {lo:g}, first buckled torque {hi:g} (deterministic simulations)")
     if math.isfinite(ana["M_c1_hopf"]):
-        cmp.add("M_c1 from the Hopf amplitude (amplitude² ∝ M − M_c1)", PAPER["M_c1"][0],
+        cmp.add("M_c1 from the Hopf amplitude (amplitude² ∝ M − M_c1)", PAPER["M_c1"].value,
                 ana["M_c1_hopf"], "pN·µm",
                 "fit of ((F_max − F_min)/2)² over buckled runs at M = "
                 + ", ".join(f"{m:g}" for m, _ in ana["hopf_points"]))
     lo2, hi2 = ana["mc2_bracket"]
-    cmp.add("M_c2 (second bifurcation)", PAPER["M_c2"][0], ana["M_c2"], "pN·µm",
+    cmp.add("M_c2 (second bifurcation)", PAPER["M_c2"].value, ana["M_c2"], "pN·µm",
             f"midpoint of last regime-(iii) torque {lo2:g} and first regime-(iv) torque {hi2:g} "
             "(simulation sweep; regime (iv): σ/σ0 > 1.5)" if math.isfinite(ana["M_c2"]) else
             "not resolved by this sweep (no regime-(iii) run below the first regime-(iv) run)")
@@ -260,7 +225,12 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
     failed = [p for p in points if "error" in p]
     for p in failed:
         cmp.note(f"run at M = {p['torque']:g} failed: {p['error']}")
-    files.append(cmp.write(out_dir))
+    return cmp
+
+
+def headline(data: Fig3Data, ana: dict, quality: str, seconds: float, files: list) -> dict:
+    """The numbers ``reproduce`` returns."""
+    points, crit, rft = data.points, data.crit, data.rft
     head = {"M_c1": crit["critical_torque"], "M_c1_method": "linear stability (critical_torque)",
             "F_c1": crit["critical_force"], "M_c1_simulation_bracket": list(ana["mc1_bracket"]),
             "M_c1_hopf_extrapolation": ana["M_c1_hopf"] if math.isfinite(ana["M_c1_hopf"]) else None,
@@ -269,8 +239,19 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
             "thrust_per_torque": ana["thrust_per_torque"],
             "thrust_per_torque_rft_pinned": rft["pinned"], "thrust_per_torque_rft_full_turn": rft["full_turn"],
             "regimes": {f"{p['torque']:g}": p.get("regime", "failed") for p in points},
-            "quality": quality, "wall_seconds": timer.seconds,
-            "files": [str(f) for f in files]}
+            "quality": quality, "wall_seconds": seconds, "files": [str(f) for f in files]}
     if head["M_c2"] is None:
         head["M_c2_note"] = "not resolved: the sweep has no regime-(iii) run below its first regime-(iv) run"
     return head
+
+
+def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
+    """Compute, analyse, plot and write Fig. 3 into ``out_dir``; returns :func:`headline`."""
+    timer = Timer()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    data = compute(quality, cache)
+    ana = analyse(data.points, quality)
+    files = plot(data.points, ana, data.rft, data.crit, quality, out_dir)
+    files += write(out_dir, data, quality)
+    files.append(compare(data, ana, quality).write(out_dir))
+    return headline(data, ana, quality, timer.seconds, files)

@@ -21,13 +21,16 @@ Method
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .common import (PAPER, Comparison, Timer, mpl, pmap, save_figure, simulate_point,
-                     write_csv, write_h5)
-from .fig3 import COLORS, run_sweep, stability_critical
+from .._plot import pyplot
+from ..io import write_csv
+from ..paper import PAPER
+from .common import Comparison, Timer, pmap, save_figure, simulate_point, write_h5
+from .shared import REGIME_COLORS, Cache
 
 LAMBDA_TORQUES = {
     "quick": (-1.0, -0.5, 0.3, 0.5, 0.75, 0.9, 1.0, 1.1, 1.2, 1.5),
@@ -67,7 +70,7 @@ def equipartition_sigma(params) -> float:
 
 
 def plot(lam, points, thermal, rft_omega, crit, quality, out_dir: Path, sig_eq_line: float = math.nan):
-    plt = mpl()
+    plt = pyplot()
     fig, axs = plt.subplots(2, 2, figsize=(11, 8.5))
     ok = [p for p in points if "error" not in p]
     okt = [p for p in thermal if "error" not in p]
@@ -84,10 +87,10 @@ def plot(lam, points, thermal, rft_omega, crit, quality, out_dir: Path, sig_eq_l
     Ms = np.linspace(min([p["torque"] for p in ok] + [-1.0]), 1.5, 50)
     a.plot(Ms, rft_omega * Ms, "r-", lw=1.2, label=f"RFT, pinned rigid helix ({rft_omega:.0f} M)")
     a.plot([p["torque"] for p in ll], [p["omega"] for p in ll], "k:", lw=1, label="aligned state (stability)")
-    for reg in COLORS:
+    for reg in REGIME_COLORS:
         sel = [p for p in ok if p["regime"] == reg]
         if sel:
-            a.plot([p["torque"] for p in sel], [p["omega"] for p in sel], "o", color=COLORS[reg], label=f"ω, {reg}")
+            a.plot([p["torque"] for p in sel], [p["omega"] for p in sel], "o", color=REGIME_COLORS[reg], label=f"ω, {reg}")
     a.set(xlabel="motor torque M [pN·µm]", ylabel="ω [rad/s]", title="(b) rotation rate ω; inset: precession χ")
     lo, hi = a.get_ylim()
     a.set_ylim(lo, hi + 0.45 * (hi - lo))  # room for the legend
@@ -114,38 +117,37 @@ def plot(lam, points, thermal, rft_omega, crit, quality, out_dir: Path, sig_eq_l
     return save_figure(fig, out_dir, "fig4", f"Fig. 4 (quality {quality})")
 
 
-def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
+@dataclass(frozen=True)
+class Fig4Data:
+    """What Fig. 4 is drawn from."""
+
+    lam: list             #: λ(M) of the aligned state, by torque
+    points: tuple         #: the deterministic sweep of Fig. 3
+    thermal: list         #: the Brownian runs
+    crit: dict            #: :class:`~.shared.AnchoredThreshold` values
+    rft_omega: float      #: ω/M of the pinned rigid helix (RFT) [rad/(s·pN·µm)]
+    sig_eq: float         #: σ/σ0 from equipartition
+
+
+def compute(quality: str, cache: Cache | None = None) -> Fig4Data:
+    """The thermal runs and the λ curve, then the sweep and M_c1 (shared with Fig. 3)."""
     from ..hydro.rft import rft_summary
     from ..params import Params
 
-    timer = Timer()
-    context = {} if context is None else context
-    out_dir.mkdir(parents=True, exist_ok=True)
+    cache = Cache() if cache is None else cache
     params = Params()
     # thermal runs and the λ curve first: the sweep may already be cached by Fig. 3
-    thermal = pmap(simulate_point, thermal_specs(quality, bool(context.get("log"))))
+    thermal = pmap(simulate_point, thermal_specs(quality, cache.log))
     lam = lambda_curve(quality)
-    points = run_sweep(quality, context)
-    crit = stability_critical(context)
+    points = cache.sweep(quality).points
+    crit = cache.anchored_threshold().values
     rft_omega = float(rft_summary(params)["pinned"]["omega_per_torque"])
-    files = plot(lam, points, thermal, rft_omega, crit, quality, out_dir, equipartition_sigma(params))
+    return Fig4Data(lam, points, thermal, crit, rft_omega, equipartition_sigma(params))
 
-    files.append(write_csv(out_dir / "lambda.csv", {k: [p.get(k, math.nan) for p in lam] for k in
-                                                   ("torque", "lambda", "frequency", "lab_frequency",
-                                                    "omega", "thrust")}))
-    cols = ("torque", "regime", "omega", "chi", "r_mean", "r_std", "r_over_L0", "sigma_over_sigma0")
-    files.append(write_csv(out_dir / "observables.csv", {c: [p.get(c, "") for p in points] for c in cols}))
-    tcols = ("torque", "t_end", "t_from", "thrust_mean", "thrust_std", "r_mean", "r_std", "r_over_L0",
-             "sigma_over_sigma0", "sigma_fast_over_sigma0", "wall_seconds", "error")
-    files.append(write_csv(out_dir / "thermal.csv", {c: [p.get(c, "") for p in thermal] for c in tcols}))
-    num = lambda rows, keys: {k: np.array([float(p.get(k, math.nan)) if not isinstance(p.get(k), str)
-                                           else math.nan for p in rows]) for k in keys}
-    files.append(write_h5(out_dir / "fig4.h5", {
-        "lambda": num(lam, ("torque", "lambda", "frequency", "lab_frequency", "omega", "thrust")),
-        "deterministic": num([p for p in points if "error" not in p], cols[:1] + cols[2:]),
-        "thermal": num([p for p in thermal if "error" not in p], tcols[:-1])}, {"quality": quality}))
 
-    sig_eq = equipartition_sigma(params)
+def analyse(data: Fig4Data) -> dict:
+    """σ/σ0 of the thermal runs below M_c1, λ by torque and its root on the grid, ω/M."""
+    lam, points, thermal, crit = data.lam, data.points, data.thermal, data.crit
     below = [p for p in thermal if "error" not in p and p["torque"] < crit["critical_torque"]]
     sig_th = float(np.mean([p["sigma_over_sigma0"] for p in below])) if below else math.nan
     sig_fast = float(np.mean([p["sigma_fast_over_sigma0"] for p in below])) if below else math.nan
@@ -157,29 +159,62 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
             root = p["torque"] + (q["torque"] - p["torque"]) * (-p["lambda"]) / (q["lambda"] - p["lambda"])
             break
     ok = [p for p in points if "error" not in p]
-    okt = [p for p in thermal if "error" not in p]
     aligned = [p for p in ok if p["regime"] == "aligned" and 0 < p["torque"] <= 1.0]
     w_slope = (float(np.sum([p["torque"] * p["omega"] for p in aligned]) /
                      np.sum([p["torque"] ** 2 for p in aligned])) if aligned else math.nan)
+    return {"below": below, "sig_th": sig_th, "sig_fast": sig_fast, "lam_dict": lam_dict,
+            "root": root, "w_slope": w_slope}
+
+
+def write(out_dir: Path, data: Fig4Data, quality: str) -> list[Path]:
+    """``lambda.csv``, ``observables.csv``, ``thermal.csv`` and ``fig4.h5``."""
+    lam, points, thermal = data.lam, data.points, data.thermal
+    files = [write_csv(out_dir / "lambda.csv", {k: [p.get(k, math.nan) for p in lam] for k in
+                                               ("torque", "lambda", "frequency", "lab_frequency",
+                                                "omega", "thrust")})]
+    cols = ("torque", "regime", "omega", "chi", "r_mean", "r_std", "r_over_L0", "sigma_over_sigma0")
+    files.append(write_csv(out_dir / "observables.csv", {c: [p.get(c, "") for p in points] for c in cols}))
+    tcols = ("torque", "t_end", "t_from", "thrust_mean", "thrust_std", "r_mean", "r_std", "r_over_L0",
+             "sigma_over_sigma0", "sigma_fast_over_sigma0", "wall_seconds", "error")
+    files.append(write_csv(out_dir / "thermal.csv", {c: [p.get(c, "") for p in thermal] for c in tcols}))
+    num = lambda rows, keys: {k: np.array([float(p.get(k, math.nan)) if not isinstance(p.get(k), str)
+                                           else math.nan for p in rows]) for k in keys}
+    files.append(write_h5(out_dir / "fig4.h5", {
+        "lambda": num(lam, ("torque", "lambda", "frequency", "lab_frequency", "omega", "thrust")),
+        "deterministic": num([p for p in points if "error" not in p], cols[:1] + cols[2:]),
+        "thermal": num([p for p in thermal if "error" not in p], tcols[:-1])}, {"quality": quality}))
+    return files
+
+
+def compare(data: Fig4Data, ana: dict, quality: str) -> Comparison:
+    """The comparison table of ``comparison.md``."""
+    from ..params import Params
+
+    points, thermal, crit, rft_omega = data.points, data.thermal, data.crit, data.rft_omega
+    params = Params()
+    sig_eq, below, sig_th, lam_dict = data.sig_eq, ana["below"], ana["sig_th"], ana["lam_dict"]
+    root, w_slope = ana["root"], ana["w_slope"]
+    ok = [p for p in points if "error" not in p]
+    okt = [p for p in thermal if "error" not in p]
     iii = [p for p in ok if p["regime"] == "buckled"]
 
     cmp = Comparison("fig4", "λ, ω and χ, ⟨r⟩/L0 and σ/σ0 versus M", quality)
-    cmp.add("σ/σ0 below M_c1 from equipartition", PAPER["sigma_equipartition"][0], sig_eq, "",
+    cmp.add("σ/σ0 below M_c1 from equipartition", PAPER["sigma_equipartition"].value, sig_eq, "",
             "√(2kT L/A) with the helix spring constant A/(R²L), kT = 4.1e-3 pN·µm")
     cmp.add("σ/σ0 below M_c1, simulated with thermal noise (mean of the runs below)",
-            PAPER["sigma_simulated"][0], sig_th, "",
+            PAPER["sigma_simulated"].value, sig_th, "",
             "Brownian dynamics at M = " + ", ".join(f"{p['torque']:g}" for p in below)
             + " pN·µm (" + ", ".join(format(p["t_end"], "g") for p in below) + " s)")
     for p in below:
-        cmp.add(f"σ/σ0 with thermal noise at M = {p['torque']:g} pN·µm", PAPER["sigma_simulated"][0],
+        cmp.add(f"σ/σ0 with thermal noise at M = {p['torque']:g} pN·µm", PAPER["sigma_simulated"].value,
                 p["sigma_over_sigma0"], "", f"std of r(t) over t ≥ {p['t_from']:.3g} s (paper's definition)")
         cmp.add(f"fast part of σ/σ0 at M = {p['torque']:g} pN·µm (compressional fluctuations)",
-                PAPER["sigma_simulated"][0], p["sigma_fast_over_sigma0"], "",
+                PAPER["sigma_simulated"].value, p["sigma_fast_over_sigma0"], "",
                 "std of r(t) about its 10-ms running mean")
-    cmp.add("M where λ changes sign (supercritical Hopf)", PAPER["M_c1"][0],
+    cmp.add("M where λ changes sign (supercritical Hopf)", PAPER["M_c1"].value,
             crit["critical_torque"], "pN·µm", "root of λ(M), critical_torque (N = 50)")
     if math.isfinite(root):
-        cmp.add("M where λ changes sign, linear interpolation of the λ grid", PAPER["M_c1"][0], root,
+        cmp.add("M where λ changes sign, linear interpolation of the λ grid", PAPER["M_c1"].value, root,
                 "pN·µm", "λ(M) grid of panel (a)")
     for M in (-1.0, -0.5):
         if f"{M:g}" in lam_dict:
@@ -205,7 +240,7 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
             cmp.add(f"thermal ⟨r⟩/L0 at M = {p['torque']:g} [paper: agrees with deterministic]",
                     det["r_over_L0"], p["r_over_L0"], "", "paper column = our deterministic run")
     kT = params.fluid.kT
-    cmp.add("persistence length A/kT", PAPER["persistence_length"][0],
+    cmp.add("persistence length A/kT", PAPER["persistence_length"].value,
             params.filament.bend_rigidity / kT, "µm", "A = 3.5 pN·µm², kT = 4.1e-3 pN·µm")
     if iii:
         p = min(iii, key=lambda q: q["torque"])
@@ -222,14 +257,32 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
              "straight for 1.2 s).")
     cmp.note("ω is the mean motor (hook-frame) speed; in the buckled regimes it differs from the "
              "spin about the local helix axis by the precession.")
-    for p in [q for q in thermal + points if "error" in q]:
+    for p in [q for q in [*thermal, *points] if "error" in q]:
         cmp.note(f"run at M = {p['torque']:g} failed: {p['error']}")
-    files.append(cmp.write(out_dir))
-    return {"sigma_over_sigma0_thermal": sig_th, "sigma_over_sigma0_thermal_fast": sig_fast,
-            "sigma_over_sigma0_equipartition": sig_eq,
+    return cmp
+
+
+def headline(data: Fig4Data, ana: dict, quality: str, seconds: float, files: list) -> dict:
+    """The numbers ``reproduce`` returns."""
+    okt = [p for p in data.thermal if "error" not in p]
+    return {"sigma_over_sigma0_thermal": ana["sig_th"], "sigma_over_sigma0_thermal_fast": ana["sig_fast"],
+            "sigma_over_sigma0_equipartition": data.sig_eq,
             "thermal_points": {f"{p['torque']:g}": {"sigma_over_sigma0": p["sigma_over_sigma0"],
                                                     "sigma_fast_over_sigma0": p["sigma_fast_over_sigma0"],
                                                     "r_over_L0": p["r_over_L0"]} for p in okt},
-            "lambda": lam_dict, "lambda_root": crit["critical_torque"],
-            "omega_per_torque": w_slope, "omega_per_torque_rft": rft_omega,
-            "quality": quality, "wall_seconds": timer.seconds, "files": [str(f) for f in files]}
+            "lambda": ana["lam_dict"], "lambda_root": data.crit["critical_torque"],
+            "omega_per_torque": ana["w_slope"], "omega_per_torque_rft": data.rft_omega,
+            "quality": quality, "wall_seconds": seconds, "files": [str(f) for f in files]}
+
+
+def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
+    """Compute, analyse, plot and write Fig. 4 into ``out_dir``; returns :func:`headline`."""
+    timer = Timer()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    data = compute(quality, cache)
+    files = plot(data.lam, data.points, data.thermal, data.rft_omega, data.crit, quality, out_dir,
+                 data.sig_eq)
+    files += write(out_dir, data, quality)
+    ana = analyse(data)
+    files.append(compare(data, ana, quality).write(out_dir))
+    return headline(data, ana, quality, timer.seconds, files)

@@ -28,7 +28,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import PAPER, Comparison, Timer, mpl, pmap, save_figure, write_csv, write_h5
+from .._plot import pyplot
+from ..io import write_csv
+from ..paper import PAPER
+from .common import Comparison, Timer, pmap, save_figure, write_h5
+from .shared import Cache, rod_theory_curve
 
 INV_A = {"quick": (0.0, 0.5, 1.0, 2.0, 4.0, 10.0, 20.0),
          "full": (0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 8.0, 10.0,
@@ -36,41 +40,6 @@ INV_A = {"quick": (0.0, 0.5, 1.0, 2.0, 4.0, 10.0, 20.0),
 FIT_MAX_INV_A = 1.0
 #: simulations that check the linear-stability M_c1: (1/a values, ± fraction, simulated time)
 CONFIRM = {"quick": ((), 0.1, 1.0), "full": ((0.5, 1.0, 2.0, 3.0), 0.1, 1.0)}
-
-
-def _theory(inv_a, radius_correction=False):
-    from ..theory.manifold import HelicalRod, load_sphere_curve
-
-    rod = HelicalRod.from_params()
-    return load_sphere_curve(rod, list(inv_a), radius_correction=radius_correction).table()
-
-
-def _critical(job: dict) -> dict:
-    """M_c1 at one 1/a, the bracket widened around the theory's guess until λ changes sign."""
-    from ..analysis.stability import critical_torque
-    from ..errors import ParameterError
-    from ..motor import Boundary
-    from ..params import Params
-
-    inv_a, guess = job["inv_a"], job["guess"]
-    boundary = Boundary() if inv_a == 0 else Boundary(anchor="sphere", sphere_radius=1.0 / inv_a)
-    timer = Timer()
-    lo, hi = max(0.4, 0.8 * guess), 1.25 * guess
-    last = None
-    for _ in range(4):
-        try:
-            ct = critical_torque(Params(), boundary, bracket=(lo, hi), xtol=1e-3)
-            return {"inv_a": inv_a, "a": math.inf if inv_a == 0 else 1 / inv_a,
-                    "M_c1": ct.critical_torque, "F_c1": ct.critical_force, "omega": ct.omega,
-                    "velocity": ct.velocity, "chi_onset": ct.lab_frequency,
-                    "wall_seconds": timer.seconds}
-        except ParameterError as exc:
-            last = str(exc)
-            lo, hi = max(0.3, 0.7 * lo), 1.4 * hi
-        except Exception as exc:  # noqa: BLE001 - continuation failure: report and go on
-            last = str(exc)
-            break
-    return {"inv_a": inv_a, "error": last, "wall_seconds": timer.seconds}
 
 
 def _confirm(job: dict) -> dict:
@@ -144,7 +113,7 @@ def _theory_lines(a, theory, x: str, y: str) -> None:
 
 
 def plot(ana, theory, crit0, quality, out_dir: Path, sims=()):
-    plt = mpl()
+    plt = pyplot()
     fig, axs = plt.subplots(1, 2, figsize=(12, 5))
     x, M, F = ana["x"], ana["M"], ana["F"]
     a = axs[0]
@@ -187,22 +156,16 @@ def plot(ana, theory, crit0, quality, out_dir: Path, sims=()):
     return save_figure(fig, out_dir, "fig5")
 
 
-def compute(quality: str, context: dict | None = None) -> list[dict]:
-    context = {} if context is None else context
-    key = f"fig5_{quality}"
-    if key not in context:
-        inv = INV_A[quality]
-        guess = _theory(inv)["M"]
-        jobs = [{"inv_a": float(v), "guess": float(g) if math.isfinite(g) else 1.0 + v,
-                 "cost": float(g) if math.isfinite(g) else 5.0} for v, g in zip(inv, guess)]
-        context[key] = pmap(_critical, jobs)
-    return context[key]
+def compute(quality: str, cache: Cache | None = None) -> list[dict]:
+    """M_c1, F_c1 by linear stability at each 1/a of the quality (shared with Fig. 7)."""
+    cache = Cache() if cache is None else cache
+    return list(cache.load_sphere_thresholds(quality, INV_A[quality]).points)
 
 
-def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
+def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
     timer = Timer()
     out_dir.mkdir(parents=True, exist_ok=True)
-    points = compute(quality, context)
+    points = compute(quality, cache)
     anchored = next((p for p in points if p["inv_a"] == 0 and "error" not in p), None)
     F0 = anchored["F_c1"] if anchored else 1.0
     M0 = anchored["M_c1"] if anchored else math.nan
@@ -210,7 +173,7 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
     extra = np.array([6.0, 8.0, 10.0, 15.0, 20.0, 30.0, 50.0])
     dense = np.unique(np.concatenate([np.linspace(0, 5, 21), extra[extra <= max(INV_A[quality])],
                                       np.array(INV_A[quality])]))
-    theory = {rc: _theory(dense, rc) for rc in (False, True)}
+    theory = {rc: rod_theory_curve(dense, rc) for rc in (False, True)}
     sims = confirmations(points, quality)
     files = plot(ana, theory, M0, quality, out_dir, sims)
     cols = ("inv_a", "a", "M_c1", "F_c1", "omega", "velocity", "chi_onset", "wall_seconds", "error")
@@ -234,13 +197,13 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
 
     e = ana["eq25"]
     cmp = Comparison("fig5", "buckling with a load sphere: M_c1(1/a) and F_c1(M_c1)", quality)
-    cmp.add("F_c1, anchored filament (1/a = 0)", PAPER["F_c1"][0], F0, "pN",
+    cmp.add("F_c1, anchored filament (1/a = 0)", PAPER["F_c1"].value, F0, "pN",
             "linear stability: thrust at the root of λ(M) (critical_torque)")
     lo, hi = ana["F_c1_range_1_2"]
-    cmp.add("F_c1 for M_c1 between 1 and 2 pN·µm: lowest", PAPER["F_c1"][0], lo, "pN", "linear stability")
-    cmp.add("F_c1 for M_c1 between 1 and 2 pN·µm: highest", PAPER["F_c1"][0], hi, "pN",
+    cmp.add("F_c1 for M_c1 between 1 and 2 pN·µm: lowest", PAPER["F_c1"].value, lo, "pN", "linear stability")
+    cmp.add("F_c1 for M_c1 between 1 and 2 pN·µm: highest", PAPER["F_c1"].value, hi, "pN",
             "linear stability [paper: nearly constant, slow linear increase]")
-    cmp.add("M_c1 linear in 1/a up to 1/a ≈", PAPER["linear_until_inv_a"][0], ana["linear_until"], "1/µm",
+    cmp.add("M_c1 linear in 1/a up to 1/a ≈", PAPER["linear_until_inv_a"].value, ana["linear_until"], "1/µm",
             f"first 1/a where M_c1 is > 5 % below the line fitted for 1/a ≤ {FIT_MAX_INV_A:g}"
             + ("" if math.isfinite(ana["linear_until"]) else " (not reached in this 1/a range)"))
     cmp.add("slope of M_c1(1/a), eq. (25) vs fit", e["slope_per_inverse_radius"], ana["slope"], "pN·µm²",
@@ -248,10 +211,10 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
             f"1/a ≤ {FIT_MAX_INV_A:g}")
     cmp.add("intercept of M_c1(1/a), eq. (25) vs fit", e["intercept"], ana["intercept"], "pN·µm",
             "paper column: −(B∥/C∥) F_c1 of eq. (25); ours: fit for 1/a ≤ 1")
-    cmp.add("M_c1 where F_c1 collapses (F_c1 at half its plateau)", PAPER["M_c1_quadratic"][0], ana["M_half"],
+    cmp.add("M_c1 where F_c1 collapses (F_c1 at half its plateau)", PAPER["M_c1_quadratic"].value, ana["M_half"],
             "pN·µm", "linear interpolation of the linear-stability points"
             + ("" if math.isfinite(ana["M_half"]) else " (F_c1 does not fall to half in this 1/a range)"))
-    cmp.add("torque where F_c1 → 0 (fit F_c1 = c(M*² − M_c1²))", PAPER["M_c1_quadratic"][0], ana["M_star"],
+    cmp.add("torque where F_c1 → 0 (fit F_c1 = c(M*² − M_c1²))", PAPER["M_c1_quadratic"].value, ana["M_star"],
             "pN·µm", f"fit over {ana['parabola_points']} points below 80 % of the plateau"
             if math.isfinite(ana["M_star"]) else "too few points in the collapse for a fit")
     if sims:

@@ -17,7 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import PAPER, Comparison, Timer, mpl, save_figure, write_csv, write_h5
+from .._plot import pyplot
+from ..io import write_csv
+from ..hydro.rft import effective_bending_rigidity
+from ..paper import MONOTRICHOUS_HELIX, PAPER
+from .common import Comparison, Timer, save_figure, write_h5
 
 
 def quantities(params=None) -> dict:
@@ -36,7 +40,8 @@ def quantities(params=None) -> dict:
     summ = rft_summary(params)
     anchored = load_sphere_curve(rod, [0.0]).table()
     Mc, Fc = float(anchored["M"][0]), float(anchored["F"][0])
-    mono = Helix.from_filament(params.replace(kappa0=2.2, tau0=2.5).filament)
+    kappa0, tau0 = MONOTRICHOUS_HELIX
+    mono = Helix.from_filament(params.replace(kappa0=kappa0, tau0=tau0).filament)
     # bond strain of the aligned rotating state at M = 1 (paper: K keeps it below 1.5 %)
     eq = relative_equilibrium(params, 1.0)
     pos = positions(eq.state)
@@ -71,16 +76,15 @@ def quantities(params=None) -> dict:
 
 
 def a_eff_ratio(alpha, A_over_C):
-    """A_eff/A of eq. (C.4)."""
-    s, c = np.sin(alpha), np.cos(alpha)
-    return 2 * s / (1 + s ** 2 + A_over_C * c ** 2)
+    """A_eff/A of eq. (C.4) at pitch angle(s) ``alpha`` [rad]."""
+    return effective_bending_rigidity(alpha, A_over_C, 1.0) / A_over_C
 
 
 def plot(q: dict, quality: str, out_dir: Path):
     from ..helix import Helix
     from ..params import Params
 
-    plt = mpl()
+    plt = pyplot()
     fig, axs = plt.subplots(1, 3, figsize=(14, 5.2), gridspec_kw={"width_ratios": [1.0, 1.2, 1.2]})
     a = axs[0]
     helix = Helix.from_filament(Params().filament)
@@ -130,7 +134,8 @@ def plot(q: dict, quality: str, out_dir: Path):
     return save_figure(fig, out_dir, "fig6", f"Fig. 6: the helical rod of §4.1 (quality {quality})")
 
 
-def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
+def run(out_dir: Path, quality: str, cache=None) -> dict:
+    """Compute, plot and write the figure into ``out_dir`` (``cache`` unused: nothing shared)."""
     timer = Timer()
     out_dir.mkdir(parents=True, exist_ok=True)
     q = quantities()
@@ -149,20 +154,20 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
     files.append(write_h5(out_dir / "fig6.h5", {"quantities": {k: np.array(v) for k, v in q.items()}},
                           {"quality": quality}))
     cmp = Comparison("fig6", "the helical rod of the buckling theory (sketch quantities)", quality)
-    cmp.add("helical turns of the L = 10 µm filament", PAPER["turns"][0], q["turns"], "",
+    cmp.add("helical turns of the L = 10 µm filament", PAPER["turns"].value, q["turns"], "",
             "L / (2πR/cos α)")
     for k, lab in (("gamma_par", "γ∥"), ("gamma_perp", "γ⊥"), ("gamma_rot", "γR")):
-        cmp.add(f"{lab} from Lighthill's formulas (r = 0.01 µm)", PAPER[k][0], q[f"{k}_lighthill"],
-                PAPER[k][1], "App. A formulas, q = 0.09Λ (the simulations use the paper's rounded values)")
-    cmp.add("persistence length A/kT", PAPER["persistence_length"][0], q["persistence_length"], "µm",
+        cmp.add(f"{lab} from Lighthill's formulas (r = 0.01 µm)", PAPER[k].value, q[f"{k}_lighthill"],
+                PAPER[k].unit, "App. A formulas, q = 0.09Λ (the simulations use the paper's rounded values)")
+    cmp.add("persistence length A/kT", PAPER["persistence_length"].value, q["persistence_length"], "µm",
             "A = 3.5 pN·µm², kT = 4.1e-3 pN·µm")
-    cmp.add("relative compression at F = 1 pN", PAPER["compression"][0], q["compression_at_1pN"], "",
+    cmp.add("relative compression at F = 1 pN", PAPER["compression"].value, q["compression_at_1pN"], "",
             "F/(A/(R²L)) divided by L0")
     cmp.add("largest bond strain [paper: K keeps length changes below 1.5 %]", "< 0.015",
             q["max_bond_strain_aligned_M1"], "", "aligned rotating state at M = 1 (relative_equilibrium)")
-    cmp.add("sin α of the monotrichous helix (κ0 = 2.2, τ0 = 2.5 /µm)", PAPER["sin_alpha_mono"][0],
+    cmp.add("sin α of the monotrichous helix (κ0 = 2.2, τ0 = 2.5 /µm)", PAPER["sin_alpha_mono"].value,
             q["sin_alpha_monotrichous"], "", "geometry")
-    cmp.add("increase of F_c ∝ 1/sin α, monotrichous vs normal", PAPER["force_increase_mono"][0],
+    cmp.add("increase of F_c ∝ 1/sin α, monotrichous vs normal", PAPER["force_increase_mono"].value,
             q["force_ratio_monotrichous"] - 1, "", "sin α_normal / sin α_mono − 1")
     cmp.note(f"Effective rod (no paper numbers): L0 = {q['L0']:.4f} µm, α = {q['pitch_angle_deg']:.2f}°, "
              f"A_eff = {q['A_eff']:.4f} pN·µm², A_eff/L0 = {q['torque_scale_A_eff_over_L0']:.4f} pN·µm, "

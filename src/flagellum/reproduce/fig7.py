@@ -22,7 +22,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import PAPER, Comparison, Timer, mpl, save_figure, write_csv, write_h5
+from .._plot import pyplot
+from ..io import write_csv
+from ..paper import PAPER
+from .common import Comparison, Timer, save_figure, write_h5
+from .shared import Cache, LoadSphereThresholds, rod_theory_curve
 
 GRIDS = {"quick": dict(m_values=np.linspace(0, 20, 21), f_par_values=np.linspace(0, 120, 13),
                        inv_a_values=np.linspace(0, 5, 11)),
@@ -31,20 +35,14 @@ GRIDS = {"quick": dict(m_values=np.linspace(0, 20, 21), f_par_values=np.linspace
 DOT_INV_A = {"quick": (0.0, 1.0, 4.0), "full": (0.0, 0.5, 1.0, 2.0, 4.0, 10.0)}
 
 
-def red_dots(quality: str, context: dict | None) -> list[dict]:
-    """Critical points of the filament (linear stability), reused from Fig. 5 if present."""
-    from . import fig5
-
-    context = {} if context is None else context
-    for key in (f"fig5_{quality}", "fig5_full", "fig5_quick"):
-        if key in context:
-            return [p for p in context[key] if "error" not in p]
-    inv = DOT_INV_A[quality]
-    guess = fig5._theory(inv)["M"]
-    from .common import pmap
-
-    jobs = [{"inv_a": float(v), "guess": float(g), "cost": float(g)} for v, g in zip(inv, guess)]
-    return [p for p in pmap(fig5._critical, jobs) if "error" not in p]
+def red_dots(quality: str, cache: Cache | None = None) -> list[dict]:
+    """Critical points of the filament (linear stability): those of Fig. 5 if the cache holds
+    them (this quality first), else a few load spheres."""
+    cache = Cache() if cache is None else cache
+    for q in (quality, "full", "quick"):
+        if q in cache.load_spheres:
+            return cache.load_spheres[q].found
+    return LoadSphereThresholds.compute(DOT_INV_A[quality], fallback_guess=False).found
 
 
 def shoulder(levels: dict, level: float = 75.0) -> float:
@@ -76,7 +74,7 @@ def collapse_torque(tab: dict) -> float:
 
 
 def plot(res, dots, quality, out_dir: Path):
-    plt = mpl()
+    plt = pyplot()
     rod, s = res.rod, res.surface
     fig = plt.figure(figsize=(13, 10))
     a = fig.add_subplot(2, 2, 1, projection="3d")
@@ -133,14 +131,14 @@ def plot(res, dots, quality, out_dir: Path):
     return save_figure(fig, out_dir, "fig7")
 
 
-def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
+def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
     from ..theory.manifold import compute_manifold, write_manifold
 
     timer = Timer()
     out_dir.mkdir(parents=True, exist_ok=True)
     res = compute_manifold(**GRIDS[quality])
     t_manifold = timer.seconds
-    dots = red_dots(quality, context)
+    dots = red_dots(quality, cache)
     rod = res.rod
     files = plot(res, dots, quality, out_dir)
     data_dir = out_dir / "manifold"
@@ -165,33 +163,31 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
     ridge = shoulder(res.levels)
     coll = {rc: collapse_torque(res.plane[rc].table()) for rc in (False, True)}
     # agreement at low m̂: theory (radius correction) on the load-sphere rays vs linear stability
-    from .fig5 import _theory
-
     agree = math.nan
     low = [p for p in dots if p["M_c1"] / rod.torque_scale < 10]
     if low:
-        th = _theory([p["inv_a"] for p in low], radius_correction=True)
+        th = rod_theory_curve([p["inv_a"] for p in low], radius_correction=True)
         rel = [abs(f - p["F_c1"]) / p["F_c1"] for f, p in zip(th["F"], low) if math.isfinite(f)]
         agree = max(rel) if rel else math.nan
     cmp = Comparison("fig7", "critical manifold of the helical rod and the force-torque relation", quality)
     cmp.add("anchored M_c1, rod theory with constant friction [paper: simulation ≈ 1.1]",
-            PAPER["M_c1"][0], a0["M"], "pN·µm", "compute_manifold: load-sphere ray at 1/a = 0")
+            PAPER["M_c1"].value, a0["M"], "pN·µm", "compute_manifold: load-sphere ray at 1/a = 0")
     cmp.add("anchored M_c1, rod theory with radius correction [paper: simulation ≈ 1.1]",
-            PAPER["M_c1"][0], a1["M"], "pN·µm", "same, R⁻¹ → R⁻¹ + M/(2A cos α)")
-    cmp.add("anchored F_c1, rod theory with constant friction", PAPER["F_c1"][0], a0["F"], "pN",
+            PAPER["M_c1"].value, a1["M"], "pN·µm", "same, R⁻¹ → R⁻¹ + M/(2A cos α)")
+    cmp.add("anchored F_c1, rod theory with constant friction", PAPER["F_c1"].value, a0["F"], "pN",
             "compute_manifold")
-    cmp.add("anchored F_c1, rod theory with radius correction", PAPER["F_c1"][0], a1["F"], "pN",
+    cmp.add("anchored F_c1, rod theory with radius correction", PAPER["F_c1"].value, a1["F"], "pN",
             "compute_manifold")
-    cmp.add("shoulder of the buckling curves (ridge of the manifold) at m̂ ≈", PAPER["ridge_m_hat"][0],
+    cmp.add("shoulder of the buckling curves (ridge of the manifold) at m̂ ≈", PAPER["ridge_m_hat"].value,
             ridge, "", "local minimum of the f̂⊥ = 75 buckling curve (grid step "
             f"{np.diff(s.m_hat)[0]:g})")
     cmp.add("theory vs filament for m̂ < 10 [paper: remarkable / quantitative agreement]", 0.0, agree, "",
             "largest relative difference of F_c (theory with radius correction) from the linear-"
             "stability F_c1 on the same load spheres, " + ", ".join(f"1/a = {p['inv_a']:g}" for p in low))
     cmp.add("torque of the collapse of F_c, theory (constant friction) [paper: simulation ≈ 4, theory "
-            "shifted to larger torque]", PAPER["M_c1_quadratic"][0], coll[False], "pN·µm",
+            "shifted to larger torque]", PAPER["M_c1_quadratic"].value, coll[False], "pN·µm",
             "F_c on the plane ∩ manifold at half its maximum")
-    cmp.add("torque of the collapse of F_c, theory (radius correction)", PAPER["M_c1_quadratic"][0],
+    cmp.add("torque of the collapse of F_c, theory (radius correction)", PAPER["M_c1_quadratic"].value,
             coll[True], "pN·µm", "same")
     cmp.note("Dimensionless theory in units A_eff/L0 = "
              f"{rod.torque_scale:.4f} pN·µm (torque) and A_eff/L0² = {rod.force_scale:.5f} pN (force).")

@@ -30,11 +30,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import PAPER, Comparison, Timer, mpl, pmap, save_figure, write_csv, write_h5
+from .._plot import pyplot
+from ..io import write_csv
+from ..paper import MONOTRICHOUS_HELIX, NORMAL_HELIX, PAPER
+from .common import Comparison, Timer, pmap, save_figure, write_h5
 
-A0 = 3.5
+A0 = PAPER["bend_rigidity"].value
 N_SEGMENTS = 50
-NORMAL, MONO = (1.3, 2.1), (2.2, 2.5)
+NORMAL, MONO = NORMAL_HELIX, MONOTRICHOUS_HELIX
 
 
 def turn_length(kappa0: float, tau0: float) -> float:
@@ -137,7 +140,8 @@ def _turn_variant(geom, turns):
     return (f"{name}, {turns:g} turns", *geom, 1.0, 1.0, turns * turn_length(*geom))
 
 
-def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
+def run(out_dir: Path, quality: str, cache=None) -> dict:
+    """Compute, plot and write the figure into ``out_dir`` (``cache`` unused: nothing shared)."""
     timer = Timer()
     out_dir.mkdir(parents=True, exist_ok=True)
     variants = VARIANTS[quality]
@@ -162,7 +166,7 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
     scan = [r for r in res if r.get("turn_scan")]
     crit = {r["variant"][0]: r for r in res if r["kind"] == "critical"}
 
-    plt = mpl()
+    plt = pyplot()
     fig, axs = plt.subplots(2, 2, figsize=(13, 10))
     axs = axs.ravel()
     rows = {k: [] for k in ("variant", "kappa0", "tau0", "A", "C", "L", "turns", "torque", "lambda",
@@ -319,7 +323,7 @@ def run(out_dir: Path, quality: str, context: dict | None = None) -> dict:
         cmp.add("spread of the rescaled buckling torque M_c1 L0/A_eff", 0.0,
                 (max(mhc) - min(mhc)) / np.mean(mhc), "", "critical_torque per variant")
     if mono is not None:
-        cmp.add("sin α of the monotrichous helix", PAPER["sin_alpha_mono"][0],
+        cmp.add("sin α of the monotrichous helix", PAPER["sin_alpha_mono"].value,
                 mono["L0"] / 10.0, "", "L0/L")
     cmp.note("Rate scale A_eff/(L0³A⊥/3) with A⊥ of eq. (A.5) for the whole filament; torque scale "
              f"A_eff/L0 (normal helix, A = C = A0: {normal['torque']:.4f} pN·µm and {normal['rate']:.4f} /s).")

@@ -25,14 +25,15 @@ b∥ ∝ R² and c∥ ∝ R and makes the plane torque dependent.
 from __future__ import annotations
 
 import math
-import os
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .._plot import pyplot
+from .._util import jsonable
 from ..helix import Helix
 from ..hydro.rft import effective_bending_rigidity, full_turn_coefficients
+from ..parallel import default_workers, pmap
 from ..params import Params, check_real
 from .buckling import (BucklingProblem, CriticalPoint, NoConvergenceError,
                        TrivialSolutionError, follow, is_tilt_mode, line_path, scan_path,
@@ -189,13 +190,6 @@ def _surface_row(args):
             [np.nan if p is None else p.chi for p in pts])
 
 
-def _map(fun, items, workers):
-    if workers and workers > 1:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            return list(pool.map(fun, items))
-    return [fun(x) for x in items]
-
-
 def critical_surface(m_values, f_par_values, *, base: str = "hinged",
                      scan=(2000.0, -2000.0), workers: int | None = 1) -> CriticalSurface:
     """Stability boundary f̂⊥(m̂, f̂∥) and χ̂ (paper Fig. 7a), row by row in m̂.
@@ -204,7 +198,7 @@ def critical_surface(m_values, f_par_values, *, base: str = "hinged",
     scanning f̂⊥ downwards from ``scan[0]``; ``workers`` processes share the rows.
     """
     m_values, f_values = np.asarray(m_values, float), np.asarray(f_par_values, float)
-    rows = _map(_surface_row, [(float(m), f_values, base, scan) for m in m_values], workers)
+    rows = pmap(_surface_row, [(float(m), f_values, base, scan) for m in m_values], workers or 1)
     return CriticalSurface(m_values, f_values, np.array([r[0] for r in rows]),
                            np.array([r[1] for r in rows]), base)
 
@@ -239,7 +233,7 @@ def level_curves(levels=LEVELS, m_values=np.linspace(0, 20, 41), *, base: str = 
     where the buckling mode is already unstable at f̂∥ = 0. Returns {level: (m̂, f̂∥, χ̂)}, NaN where there is no point.
     """
     m_values = np.asarray(m_values, float)
-    rows = _map(_level_row, [(float(c), m_values, base, scan) for c in levels], workers)
+    rows = pmap(_level_row, [(float(c), m_values, base, scan) for c in levels], workers or 1)
     return {c: (m_values, np.array([r[0] for r in row]), np.array([r[1] for r in row]))
             for c, row in zip(levels, rows)}
 
@@ -354,7 +348,7 @@ def compute_manifold(params: Params | None = None, *, m_values=None, f_par_value
     import time
 
     rod = HelicalRod.from_params(params)
-    workers = workers or min(2, os.cpu_count() or 1)
+    workers = workers or default_workers(2)
     m_values = np.linspace(0, 20, 41) if m_values is None else np.asarray(m_values, float)
     f_par_values = np.linspace(0, 120, 41) if f_par_values is None else np.asarray(f_par_values, float)
     inv_a_values = np.linspace(0, 5, 21) if inv_a_values is None else np.asarray(inv_a_values, float)
@@ -364,7 +358,7 @@ def compute_manifold(params: Params | None = None, *, m_values=None, f_par_value
     lv = level_curves(levels, m_values, base=base, workers=workers)
     t2 = time.perf_counter()
     jobs = [(kind, rc) for kind in ("plane", "sphere") for rc in (False, True)]
-    curves = dict(zip(jobs, _map(_curve_job, [(k, rc, rod, m_values, inv_a_values, base)
+    curves = dict(zip(jobs, pmap(_curve_job, [(k, rc, rod, m_values, inv_a_values, base)
                                              for k, rc in jobs], workers)))
     t3 = time.perf_counter()
     plane = {rc: curves["plane", rc] for rc in (False, True)}
@@ -387,19 +381,19 @@ def write_manifold(result: ManifoldResult, out_dir) -> list:
     import json
     from pathlib import Path
 
-    from ..io import atomic_write_text
+    from ..io import atomic_write_text, write_csv
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     s = result.surface
     mm, ff = np.meshgrid(s.m_hat, s.f_par, indexing="ij")
-    files = {"surface.csv": _csv(("m_hat", "f_par", "f_perp", "chi"),
-                                 [mm.ravel(), ff.ravel(), s.f_perp.ravel(), s.chi.ravel()])}
+    tables = {"surface.csv": {"m_hat": mm.ravel(), "f_par": ff.ravel(), "f_perp": s.f_perp.ravel(),
+                              "chi": s.chi.ravel()}}
     rows = [[], [], [], []]
     for level, (m, f, chi) in result.levels.items():
         for col, vals in zip(rows, (np.full(len(m), level), m, f, chi)):
             col.extend(vals)
-    files["level_curves.csv"] = _csv(("f_perp", "m_hat", "f_par", "chi"), rows)
+    tables["level_curves.csv"] = dict(zip(("f_perp", "m_hat", "f_par", "chi"), rows))
     for name, curves, pname in (("plane_intersection.csv", result.plane, "m_hat_path"),
                                 ("load_sphere.csv", result.sphere, "inv_a")):
         cols, header = None, None
@@ -409,42 +403,18 @@ def write_manifold(result: ManifoldResult, out_dir) -> list:
             block = [tab["parameter"], np.full(len(tab["parameter"]), int(rc)),
                      *[tab[k] for k in list(tab)[1:]]]
             cols = block if cols is None else [np.concatenate([a, b]) for a, b in zip(cols, block)]
-        files[name] = _csv(header, cols)
-    paths = []
-    for name, text in files.items():
-        atomic_write_text(out / name, text)
-        paths.append(out / name)
-    atomic_write_text(out / "summary.json", json.dumps(_finite(result.summary()), indent=2))
+        tables[name] = dict(zip(header, cols))
+    paths = [write_csv(out / name, table) for name, table in tables.items()]
+    atomic_write_text(out / "summary.json", json.dumps(jsonable(result.summary()), indent=2))
     paths.append(out / "summary.json")
     paths.append(plot_manifold(result, out / "manifold.png"))
     return paths
 
 
-def _finite(obj):
-    if isinstance(obj, dict):
-        return {k: _finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite(v) for v in obj]
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
-
-
-def _csv(header, columns) -> str:
-    lines = [",".join(header)]
-    for row in zip(*columns):
-        lines.append(",".join(f"{float(v):.10g}" for v in row))
-    return "\n".join(lines) + "\n"
-
-
 def plot_manifold(result: ManifoldResult, path):
     """Four panels in the spirit of Fig. 7: (a) manifold, (b) buckling curves,
     (c) plane intersections F_c(M_c), (d) M_c1 versus 1/a."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = pyplot()
     s, rod = result.surface, result.rod
     fig, ax = plt.subplots(2, 2, figsize=(11, 8.5))
     a = ax[0, 0]

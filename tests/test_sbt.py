@@ -29,8 +29,8 @@ def _cosine_grid(length, n):
 
 def _spheroid_exact(a, b, eta=1.0):
     """Exact drag of a prolate spheroid (semi-axes a > b) along and across its axis
-    (Chwang & Wu, J. Fluid Mech. 67, 787 (1975), eqs. for the Stokeslet + doublet line;
-    also Happel & Brenner, Low Reynolds number hydrodynamics, §4.30)."""
+    (Chwang & Wu, J. Fluid Mech. 67, 787 (1975): a line of Stokeslets and doublets between
+    the foci); e → 0 gives 6πηa."""
     e = math.sqrt(1 - (b / a) ** 2)
     lg = math.log((1 + e) / (1 - e))
     return (16 * math.pi * eta * a * e**3 / ((1 + e * e) * lg - 2 * e),
@@ -105,8 +105,8 @@ def test_convergence_on_uniform_beads():
 
 @pytest.mark.parametrize("aspect", [100, 1000, 10000])
 def test_straight_cylinder_against_cox(aspect):
-    # Cox, J. Fluid Mech. 44, 791 (1970) (also Batchelor, J. Fluid Mech. 44, 419 (1970)),
-    # a cylinder of length L and radius r, first terms in ε = 1/ln(L/r):
+    # Cox, J. Fluid Mech. 44, 791 (1970), a cylinder of length L and radius r, first terms in
+    # ε = 1/ln(L/r) (Batchelor, J. Fluid Mech. 44, 419 (1970), carries them further):
     #   F∥ = 2πηLU / (ln(L/r) − 3/2 + ln 2),   F⊥ = 4πηLU / (ln(L/r) − 1/2 + ln 2).
     # Constant-radius SBT and these differ at relative order ε² (the order they neglect;
     # measured: 4.6/3.9 % at L/r = 100, 1.2/0.9 % at 10³, 0.4/0.3 % at 10⁴).

@@ -287,6 +287,8 @@ def test_mobility_structure():
     ({"positions": np.zeros((1, 3))}, "positions"),
     ({"positions": np.zeros((3, 3))}, "positions"),
     ({"radius": -1.0}, "radius"),
+    ({"radius": np.ones(3)}, "radius"),
+    ({"radius": np.zeros(6)}, "radius"),
     ({"viscosity": 0.0}, "viscosity"),
     ({"cutoff": 0.0}, "cutoff"),
     ({"weights": np.ones(3)}, "weights"),

@@ -15,7 +15,7 @@ Cortez, J. Comput. Phys. 375, 783 (2018)), so that ε may be far below the bead 
 Calibration: for a uniform density on a straight line the integral at arc length s is
 (1/8πη)[2 ln(4s(L−s)/ε²) tt + (ln(4s(L−s)/ε²) + 2)(1 − tt)] f + O(ε/s), while the
 slender-body theory of a filament of radius r (Keller & Rubinow 1976; Johnson 1980) gives
-(1/8πη)[L(1 + tt) + (1 − 3tt)] f with L = ln(4s(L−s)/r²). Both directions agree when
+(1/8πη)[ℒ(1 + tt) + (1 − 3tt)] f with ℒ = ln(4s(L−s)/r²). Both directions agree when
 ε = √e · r (:data:`EPS_PER_RADIUS`); the nonlocal parts agree up to O(ε²/|r|²).
 
 Neglected: the spin of the cross-section enters only locally (friction γR = 4πηr² per
@@ -55,12 +55,16 @@ def _segment_radius(radius, n: int) -> np.ndarray:
     """Radius of each of the n segments: a scalar, or per bead (mean of the two ends)."""
     r = np.asarray(radius, float)
     if r.ndim == 0:
-        r = np.full(n + 1, float(r))
-    if r.shape != (n + 1,) or not np.all(np.isfinite(r)) or np.any(r < 0):
-        raise ParameterError("radius", f"shape {r.shape}", "> 0, a scalar or one value ≥ 0 per bead")
+        if not (np.isfinite(r) and r > 0):
+            raise ParameterError("radius", float(r), "> 0 (µm)")
+        return np.full(n, float(r))
+    if r.shape != (n + 1,):
+        raise ParameterError("radius", f"an array of shape {r.shape}", f"a scalar or {n + 1} values")
+    if not np.all(np.isfinite(r)) or np.any(r < 0):
+        raise ParameterError("radius", float(np.min(r)), "≥ 0 at every bead")
     rs = 0.5 * (r[1:] + r[:-1])
     if np.any(rs <= 0):
-        raise ParameterError("radius", 0.0, "> 0 on every segment")
+        raise ParameterError("radius", 0.0, "> 0 on every segment (not zero at both its beads)")
     return rs
 
 

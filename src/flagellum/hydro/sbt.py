@@ -1,0 +1,249 @@
+"""Nonlocal hydrodynamics of the discrete centreline: regularized Stokeslet segments
+calibrated to slender-body theory (see docs/hydrodynamics.md).
+
+The filament is the polyline through its beads, carrying a piecewise-linear force density
+f(s) = Σ_k (F_k / w_k) φ_k(s) (φ_k the hat function of bead k, w_k = ∫ φ_k ds its length:
+h, end beads h/2, as in :mod:`flagellum.hydro.local`). The velocity of bead i is the
+integral of the regularized Stokeslet of Cortez, Fauci & Medovikov, Phys. Fluids 17,
+031504 (2005), blob φ_ε = 15ε⁴ / (8π(r² + ε²)^{7/2}), ::
+
+    8πη u(x) = ∫ [(|r|² + 2ε²) f + (r·f) r] / (|r|² + ε²)^{3/2} ds,   r = x − X(s),
+
+done in closed form on every straight segment (the "regularized Stokeslet segments" of
+Cortez, J. Comput. Phys. 375, 783 (2018)), so that ε may be far below the bead spacing h.
+
+Calibration: for a uniform density on a straight line the integral at arc length s is
+(1/8πη)[2 ln(4s(L−s)/ε²) tt + (ln(4s(L−s)/ε²) + 2)(1 − tt)] f + O(ε/s), while the
+slender-body theory of a filament of radius r (Keller & Rubinow 1976; Johnson 1980) gives
+(1/8πη)[ℒ(1 + tt) + (1 − 3tt)] f with ℒ = ln(4s(L−s)/r²). Both directions agree when
+ε = √e · r (:data:`EPS_PER_RADIUS`); the nonlocal parts agree up to O(ε²/|r|²).
+
+Neglected: the spin of the cross-section enters only locally (friction γR = 4πηr² per
+length about the tangent, as in the local model); the rotlet it sends to other beads
+(relative size r²/d²) and the fluid vorticity that other segments impose on it are dropped,
+and so is the source doublet of SBT beyond what the blob carries (again O(r²/d²)).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ParameterError
+from .local import bead_node
+
+#: ε / r of the regularized Stokeslet line that reproduces slender-body theory of radius r
+EPS_PER_RADIUS = math.exp(0.5)
+_ROWS = 64
+
+
+def _check_positions(positions) -> np.ndarray:
+    x = np.asarray(positions, float)
+    if x.ndim != 2 or x.shape[1] != 3 or len(x) < 2:
+        raise ParameterError("positions", f"shape {x.shape}", "an (n+1, 3) array with n ≥ 1")
+    if not np.all(np.isfinite(x)):
+        raise ParameterError("positions", "non-finite", "finite coordinates")
+    lengths = np.linalg.norm(np.diff(x, axis=0), axis=1)
+    if np.any(lengths <= 0):
+        raise ParameterError("positions", "coincident beads", "distinct consecutive beads")
+    return x
+
+
+def _segment_radius(radius, n: int) -> np.ndarray:
+    """Radius of each of the n segments: a scalar, or per bead (mean of the two ends)."""
+    r = np.asarray(radius, float)
+    if r.ndim == 0:
+        if not (np.isfinite(r) and r > 0):
+            raise ParameterError("radius", float(r), "> 0 (µm)")
+        return np.full(n, float(r))
+    if r.shape != (n + 1,):
+        raise ParameterError("radius", f"an array of shape {r.shape}", f"a scalar or {n + 1} values")
+    if not np.all(np.isfinite(r)) or np.any(r < 0):
+        raise ParameterError("radius", float(np.min(r)), "≥ 0 at every bead")
+    rs = 0.5 * (r[1:] + r[:-1])
+    if np.any(rs <= 0):
+        raise ParameterError("radius", 0.0, "> 0 on every segment (not zero at both its beads)")
+    return rs
+
+
+def centreline_nodes(positions):
+    """(tangents, weights) of the beads of a polyline, as :func:`flagellum.hydro.rft.bead_nodes`
+    gives them for a discrete helix: the averaged unit tangent of the adjacent bonds
+    (:func:`flagellum.hydro.local.bead_node`) and the length (ℓ_{k−1} + ℓ_k)/2."""
+    x = _check_positions(positions)
+    d = np.diff(x, axis=0)
+    lengths = np.linalg.norm(d, axis=1)
+    bonds = np.vstack([d[:1], d]) / np.r_[lengths[:1], lengths][:, None]
+    n = len(d)
+    t = np.array([bead_node(bonds, i, n)[:3] for i in range(n + 1)])
+    w = 0.5 * (np.r_[0.0, lengths] + np.r_[lengths, 0.0])
+    return t, w
+
+
+def _segment_blocks(x: np.ndarray, eps: np.ndarray, cutoff: float | None, rows=slice(None)):
+    """3×3 blocks G_a, G_b (shape (targets, n, 3, 3)): ∫ S_ε(x_i − X(s)) w(s) ds over segment j
+    with w = 1 − s/ℓ_j (its first bead) and w = s/ℓ_j (its second bead).
+
+    In the coordinate σ = s − b along the segment (b the projection of x_i − P_j on its
+    direction e, p the perpendicular part, c² = |p|² + ε², ρ = √(σ² + c²)) the kernel is
+    [(1 + ε²/ρ²) 1 + (p − σe)(p − σe)ᵀ/ρ²]/ρ, so all that is needed are the moments
+    ∫ σᵏ/ρ (k = 0, 1) and ∫ σᵏ/ρ³ (k = 0…3), here in cancellation-free closed forms.
+    """
+    p0, d = x[:-1], np.diff(x, axis=0)
+    ell = np.linalg.norm(d, axis=1)
+    e = d / ell[:, None]
+    r0 = x[rows, None, :] - p0[None, :, :]  # (targets, n, 3)
+    b = np.einsum("ijk,jk->ij", r0, e)
+    perp = r0 - b[..., None] * e[None]
+    c2 = np.einsum("ijk,ijk->ij", perp, perp) + eps[None, :] ** 2
+    c = np.sqrt(c2)
+    lo, hi = np.zeros_like(b), np.broadcast_to(ell, b.shape).copy()
+    if cutoff is not None:  # keep the part of each segment within arc length `cutoff` of bead i
+        arc = np.r_[0.0, np.cumsum(ell)]
+        rel = arc[rows, None] - arc[None, :-1]  # arc length of bead i from the start of segment j
+        lo = np.clip(rel - cutoff, 0.0, ell)
+        hi = np.clip(rel + cutoff, 0.0, ell)
+    s0, s1 = lo - b, hi - b
+    q0, q1 = np.sqrt(s0 * s0 + c2), np.sqrt(s1 * s1 + c2)
+    J0 = np.arcsinh(s1 / c) - np.arcsinh(s0 / c)
+    J1 = (s1 - s0) * (s1 + s0) / (q1 + q0)  # ρ1 − ρ0
+    # σ/(c²ρ) = sgn σ (1/c² − 1/(ρ(ρ + |σ|))): no cancellation when both ends lie on one side
+    K0 = (np.sign(s1) - np.sign(s0)) / c2 - (np.sign(s1) / (q1 * (q1 + np.abs(s1)))
+                                             - np.sign(s0) / (q0 * (q0 + np.abs(s0))))
+    K1 = J1 / (q0 * q1)
+    K2 = J0 - (s1 / q1 - s0 / q0)
+    K3 = J1 - c2 * K1
+    eps2 = (eps ** 2)[None, :]
+    ee = e[:, :, None] * e[:, None, :]
+    pp = perp[..., :, None] * perp[..., None, :]
+    pe = perp[..., :, None] * e[None, :, None, :]
+    pe = pe + np.swapaxes(pe, -1, -2)
+    eye = np.eye(3)
+
+    def block(beta0, beta1):
+        m0, m1 = beta0 * K0 + beta1 * K1, beta0 * K1 + beta1 * K2
+        m2 = beta0 * K2 + beta1 * K3
+        iso = beta0 * J0 + beta1 * J1 + eps2 * m0
+        return (iso[..., None, None] * eye + m0[..., None, None] * pp - m1[..., None, None] * pe
+                + m2[..., None, None] * ee[None])
+
+    inv = 1.0 / ell[None, :]
+    return block(1.0 - b * inv, -inv), block(b * inv, inv)
+
+
+def mobility(positions, radius, viscosity, weights=None, cutoff=None) -> np.ndarray:
+    """Dense mobility M (3(n+1) × 3(n+1)): bead velocities U = M F from bead forces F.
+
+    ``positions`` (n+1, 3) beads of the centreline; ``radius`` the filament radius r (scalar
+    or one per bead; the blob size is ε = √e r on each segment); ``viscosity`` η;
+    ``weights`` the bead lengths w_k that turn bead forces into line densities F_k / w_k
+    (default: (ℓ_{k−1} + ℓ_k)/2, the hat-function lengths). ``cutoff`` keeps only the part of
+    the filament within that arc length of each bead: the local (RFT-like) limit.
+    Row/column index 3k + a is component a of bead k. Self terms included; spin not (it is
+    local, see :class:`SlenderBody`).
+    """
+    x = _check_positions(positions)
+    n = len(x) - 1
+    if isinstance(viscosity, bool) or not np.isfinite(viscosity) or viscosity <= 0:
+        raise ParameterError("viscosity", viscosity, "> 0")
+    if cutoff is not None and not cutoff > 0:
+        raise ParameterError("cutoff", cutoff, "> 0 (an arc length) or None")
+    eps = EPS_PER_RADIUS * _segment_radius(radius, n)
+    K = np.zeros((n + 1, n + 1, 3, 3))
+    for start in range(0, n + 1, _ROWS):  # bounded temporaries: _ROWS targets at a time
+        rows = slice(start, min(start + _ROWS, n + 1))
+        ga, gb = _segment_blocks(x, eps, cutoff, rows)
+        K[rows, :-1] += ga
+        K[rows, 1:] += gb
+    if weights is None:
+        _, w = centreline_nodes(x)
+    else:
+        w = np.asarray(weights, float)
+        if w.shape != (n + 1,) or np.any(~(w > 0)):
+            raise ParameterError("weights", f"shape {w.shape}", "n+1 lengths > 0")
+    K /= (8 * math.pi * viscosity) * w[None, :, None, None]
+    return K.transpose(0, 2, 1, 3).reshape(3 * (n + 1), 3 * (n + 1))
+
+
+def rigid_motion_matrix(positions, origin=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """J (3(n+1) × 6): bead velocities v + ω × (x_i − origin) of the rigid motion (v, ω)."""
+    r = np.asarray(positions, float) - np.asarray(origin, float)
+    m = len(r)
+    J = np.zeros((m, 3, 6))
+    J[:, :, :3] = np.eye(3)
+    z = np.zeros(m)
+    J[:, :, 3:] = -np.stack([np.stack([z, -r[:, 2], r[:, 1]], -1),
+                             np.stack([r[:, 2], z, -r[:, 0]], -1),
+                             np.stack([-r[:, 1], r[:, 0], z], -1)], -2)
+    return J.reshape(3 * m, 6)
+
+
+def rigid_resistance(mobility_matrix, positions, origin=(0.0, 0.0, 0.0), tangents=None,
+                     weights=None, gamma_rot=0.0) -> np.ndarray:
+    """6×6 [[A, C], [Cᵀ, B]] of a rigid filament from any bead mobility (forces and torques
+    applied to the body, torques about ``origin``; the convention of
+    :func:`flagellum.hydro.rft.resistance_matrix`): Jᵀ M⁻¹ J, plus the local spin friction
+    γR Σ w t tᵀ in B when ``gamma_rot`` > 0 (needs ``tangents`` and ``weights``)."""
+    J = rigid_motion_matrix(positions, origin)
+    R = J.T @ np.linalg.solve(np.asarray(mobility_matrix, float), J)
+    if gamma_rot:
+        t, w = np.asarray(tangents, float), np.asarray(weights, float)
+        R[3:, 3:] += gamma_rot * np.einsum("k,ki,kj->ij", w, t, t)
+    return R
+
+
+def resistance_matrix(positions, radius, viscosity, gamma_rot=0.0, origin=(0.0, 0.0, 0.0),
+                      tangents=None, weights=None, cutoff=None) -> np.ndarray:
+    """6×6 resistance matrix of the rigid filament through ``positions`` with the nonlocal
+    mobility of :func:`mobility` (same arguments); tangents and weights default to
+    :func:`centreline_nodes`."""
+    t, w = centreline_nodes(positions)
+    t = t if tangents is None else tangents
+    w = w if weights is None else weights
+    M = mobility(positions, radius, viscosity, weights=w, cutoff=cutoff)
+    return rigid_resistance(M, positions, origin, t, w, gamma_rot)
+
+
+def local_friction(cutoff, radius, viscosity) -> tuple[float, float]:
+    """(γ∥, γ⊥) of the kernel kept within arc length ``cutoff`` on a straight filament:
+    8πη u = [2 asinh(q/ε)(1 + tt) + 2 q/√(q² + ε²) (1 − tt)] f  (q = cutoff, ε = √e r),
+    i.e. γ∥ ≈ 2πη/(ln(2q/r) − ½), γ⊥ ≈ 4πη/(ln(2q/r) + ½)."""
+    eps = EPS_PER_RADIUS * radius
+    a, b = math.asinh(cutoff / eps), cutoff / math.hypot(cutoff, eps)
+    return 8 * math.pi * viscosity / (4 * a), 8 * math.pi * viscosity / (2 * a + 2 * b)
+
+
+@dataclass(frozen=True)
+class SlenderBody:
+    """Nonlocal hydrodynamic model of the filament (the interface a time stepper calls).
+
+    ``mobility(positions)`` is the translational bead mobility (nonlocal, dense);
+    ``spin_friction(h)`` the local friction of a bond spinning about its tangent, as
+    :func:`flagellum.hydro.local.spin_friction` gives it for the local model.
+    """
+
+    radius: float  #: filament radius r [µm]
+    viscosity: float  #: η [pN·s/µm²]
+
+    def __post_init__(self):
+        for name in ("radius", "viscosity"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not np.isfinite(v) or v <= 0:
+                raise ParameterError(name, v, "> 0")
+
+    @property
+    def gamma_rot(self) -> float:
+        """γR = 4πηr²: torque per length and angular velocity of a spinning cylinder."""
+        return 4 * math.pi * self.viscosity * self.radius ** 2
+
+    def spin_friction(self, h: float) -> float:
+        return self.gamma_rot * h
+
+    def mobility(self, positions, weights=None) -> np.ndarray:
+        return mobility(positions, self.radius, self.viscosity, weights=weights)
+
+    def resistance_matrix(self, positions, origin=(0.0, 0.0, 0.0), spin=True) -> np.ndarray:
+        return resistance_matrix(positions, self.radius, self.viscosity,
+                                 self.gamma_rot if spin else 0.0, origin)

@@ -60,6 +60,7 @@ def shared():
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 @pytest.mark.parametrize("fig", ["fig3", "fig4", "fig6", "fig7", "fig8"])
 def test_quick_target(fig, tmp_path, shared):
     res = reproduce(fig, tmp_path, "quick", context=shared)
@@ -92,6 +93,7 @@ def test_fig5_quick_cli_json(tmp_path, capsys):
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_all_quick(tmp_path):
     res = reproduce("all", tmp_path, "quick")
     for fig in EXPECTED_ROWS:

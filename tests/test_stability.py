@@ -197,6 +197,7 @@ def test_cli_bad_input_one_line_exit_2(args, name, capsys):
 
 # -- slow: simulation, convergence, boundaries ---------------------------------------------
 @pytest.mark.slow
+@pytest.mark.ci
 @pytest.mark.parametrize("torque,kw", [
     (1.2, dict(t_end=1.5, amplitude=1e-6, fit_from=0.6)),  # growing buckling mode
     (1.0, dict(t_end=2.0, amplitude=3e-3, fit_from=0.8)),  # decaying buckling mode
@@ -212,6 +213,7 @@ def test_simulation_gives_the_eigenvalue(torque, kw):
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_load_sphere_follows_eq_25():
     """Paper eq. (25): M_c1 grows linearly in 1/a with slope (C∥ − A∥B∥/C∥) F_c1/(6πη)."""
     params = Params()
@@ -225,6 +227,7 @@ def test_load_sphere_follows_eq_25():
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_stiff_elastic_hook_approaches_clamped():
     clamped = _stability(1.0, hook="clamped")
     stiff = _stability(1.0, hook="elastic", k=1e4)
@@ -235,6 +238,7 @@ def test_stiff_elastic_hook_approaches_clamped():
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_critical_torque_converges_with_resolution():
     mc = [critical_torque(Params(Filament(segment_length=h))).critical_torque for h in (0.4, 0.2, 0.1)]
     assert abs(mc[2] - mc[1]) < 0.5 * abs(mc[1] - mc[0])

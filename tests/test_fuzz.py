@@ -42,9 +42,19 @@ def test_constructors_raise_parameter_error_or_succeed(cls, data):
        hook=weird | st.sampled_from(["free", "elastic", "clamped"]), k=weird)
 def test_boundary(anchor, radius, hook, k):
     try:
-        Boundary(anchor=anchor, sphere_radius=radius, hook=hook, hook_stiffness=k)
-    except ParameterError:
-        pass
+        b = Boundary(anchor=anchor, sphere_radius=radius, hook=hook, hook_stiffness=k)
+    except ParameterError as exc:
+        assert exc.name in ("anchor", "sphere_radius", "hook", "hook_stiffness"), exc
+        assert exc.name in str(exc) and "\n" not in str(exc)
+        return
+    # accepted: valid choices, and every number that is used is finite and in range
+    assert b.anchor in ("fixed", "sphere", "free") and b.hook in ("free", "elastic", "clamped")
+    assert isinstance(b.hook_stiffness, float) and 0 <= b.hook_stiffness <= 1e6
+    assert (b.hook_stiffness > 0) == (b.hook == "elastic")
+    if b.anchor == "sphere":
+        assert isinstance(b.sphere_radius, float) and 0 < b.sphere_radius <= 1e6
+    if b.anchor == "free":
+        assert isinstance(b.sphere_radius, float) and 0 <= b.sphere_radius <= 1e6
 
 
 @settings(max_examples=60, deadline=None)
@@ -52,9 +62,15 @@ def test_boundary(anchor, radius, hook, k):
        key=st.text(max_size=8) | st.sampled_from(["length", "kT", "model"]), value=weird)
 def test_from_dict(section, key, value):
     try:
-        Params.from_dict({section: {key: value}})
-    except ParameterError:
-        pass
+        p = Params.from_dict({section: {key: value}})
+    except ParameterError as exc:
+        # the message names the section, the key or the config as a whole
+        assert section in str(exc) or key in str(exc) or "config" in str(exc), exc
+        return
+    # accepted: a known section and key, and the result survives a round trip
+    assert section in ("filament", "fluid", "friction")
+    assert ("model" if (section, key) == ("friction", "friction") else key) in p.to_dict()[section]
+    assert Params.from_dict(p.to_dict()) == p
 
 
 @settings(max_examples=40, deadline=None)
@@ -66,14 +82,18 @@ def test_from_dict(section, key, value):
 def test_cli_rft_exit_codes(flag, value):
     import contextlib
     import io
+    import json
 
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+    err, out = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
         code = run(["rft", flag, value, "--json"])
     assert code in (0, 2)
     if code == 2:
         lines = err.getvalue().strip().splitlines()
         assert len(lines) == 1 and "Traceback" not in err.getvalue()
+    else:  # accepted: the answer is one JSON object with finite F/M
+        res = json.loads(out.getvalue())
+        assert math.isfinite(res["thrust_per_torque"])
 
 
 def test_cli_malformed_config(tmp_path):

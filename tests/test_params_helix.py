@@ -50,6 +50,8 @@ def test_lighthill_close_to_papers_rounded_values():
     cos_a = 1.3 / math.hypot(1.3, 2.1)
     log = math.log(2 * 0.09 * 2 * math.pi * R / cos_a / 0.01)
     assert gp == pytest.approx(2 * math.pi * 1e-3 / log, rel=1e-12)
+    # literature: §2.4 quotes the Lighthill values rounded, γ∥ = 1.6e-3, γ⊥ = 2.8e-3 pN·s/µm²,
+    # γR = 1.26e-6 pN·s (its filament radius "about 20 nm" is not exact: hence 5 %)
     assert gp == pytest.approx(1.6e-3, rel=0.05)
     assert gn == pytest.approx(2.8e-3, rel=0.05)
     assert gr == pytest.approx(1.26e-6, rel=0.01)
@@ -80,9 +82,9 @@ def test_continuum_helix_measured():
     s = np.linspace(0, h.length, 2001)
     r = h.positions(s)
     assert np.allclose(np.hypot(r[:, 0], r[:, 1]), h.radius)
-    assert h.radius == pytest.approx(0.213, abs=5e-4)
+    assert h.radius == pytest.approx(0.213, abs=5e-4)  # closed form R = κ/(κ² + τ²)
     assert h.axial_length == pytest.approx(r[-1, 2] - r[0, 2])
-    assert h.axial_length == pytest.approx(8.50, abs=5e-3)
+    assert h.axial_length == pytest.approx(8.50, abs=5e-3)  # closed form L sin α
     # pitch: axial rise over one turn of contour length
     assert h.positions(h.turn_length)[2] == pytest.approx(h.pitch)
     assert math.tan(h.pitch_angle) == pytest.approx(h.pitch / (2 * math.pi * h.radius))

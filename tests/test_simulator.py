@@ -180,6 +180,7 @@ def test_fixed_step_schemes_converge_at_their_order():
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_bdf2_keeps_the_buckling_mode_that_implicit_euler_damps():
     """At M = 1.6 pN·µm (λ ≈ +25 /s) implicit Euler at Δt = 5e-5 s in the co-rotating frame
     damps the buckling mode (numerical damping ν²Δt/2 ≈ 46 /s at ν ≈ 1360 rad/s) and stays

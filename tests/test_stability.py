@@ -187,6 +187,7 @@ def test_cli_bad_input_one_line_exit_2(args, name, cli):
 
 # -- slow: simulation, convergence, boundaries ---------------------------------------------
 @pytest.mark.slow
+@pytest.mark.ci
 @pytest.mark.parametrize("torque,kw", [
     (1.2, dict(t_end=1.5, amplitude=1e-6, fit_from=0.6)),  # growing buckling mode
     (1.0, dict(t_end=2.0, amplitude=3e-3, fit_from=0.8)),  # decaying buckling mode
@@ -196,12 +197,14 @@ def test_cli_bad_input_one_line_exit_2(args, name, cli):
                 samples=20000, rtol=1e-10, atol=1e-14)),  # weakly unstable tilt, λ ~ 1e-3 /s
 ])
 def test_simulation_gives_the_eigenvalue(torque, kw):
+    # independent: a fit to a simulated relaxation (the full nonlinear model, no Jacobian)
     res = _stability(torque)
     fit = simulated_growth_rate(res.equilibrium, **kw)
     assert fit.rate == pytest.approx(res.lambda_, rel=0.02)
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_load_sphere_follows_eq_25():
     """Paper eq. (25): M_c1 grows linearly in 1/a with slope (C∥ − A∥B∥/C∥) F_c1/(6πη)."""
     params = Params()
@@ -209,12 +212,16 @@ def test_load_sphere_follows_eq_25():
     big = critical_torque(params, Boundary("sphere", 5.0))
     coeffs = rft.full_turn_coefficients(Helix.from_filament(params.filament), *params.gammas[:2])
     slope = rft.critical_torque_line(coeffs, fixed.critical_force, params.fluid.viscosity)
+    # 10 %: eq. (25) takes App. A's full-turn coefficients of the rigid helix on its axis; the
+    # filament (3.93 turns, pinned at bead 0, deformed) has an F/M 7 % below App. A's at M_c1
+    # (0.951 vs 1.021 /µm, tests/test_theory_manifold.py)
     assert (big.critical_torque - fixed.critical_torque) / 0.2 == pytest.approx(
         slope["slope_per_inverse_radius"], rel=0.1)
     assert big.critical_force == pytest.approx(fixed.critical_force, rel=0.03)  # F_c1 ~ const
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_stiff_elastic_hook_approaches_clamped():
     clamped = _stability(1.0, hook="clamped")
     stiff = _stability(1.0, hook="elastic", k=1e4)
@@ -225,6 +232,7 @@ def test_stiff_elastic_hook_approaches_clamped():
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_critical_torque_converges_with_resolution():
     mc = [critical_torque(Params(Filament(segment_length=h))).critical_torque for h in (0.4, 0.2, 0.1)]
     assert abs(mc[2] - mc[1]) < 0.5 * abs(mc[1] - mc[0])

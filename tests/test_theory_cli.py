@@ -79,6 +79,7 @@ def test_bad_input_one_line_exit_2(args, name, cli):
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_manifold_cli_writes_files(tmp_path, capsys):
     d = _json(capsys, "manifold", "--out", str(tmp_path), "--m-max", "6", "--m-steps", "4",
               "--f-par-max", "40", "--f-par-steps", "4", "--inv-a-max", "1", "--inv-a-steps", "2")

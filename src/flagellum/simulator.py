@@ -33,6 +33,7 @@ import numpy as np
 from . import io
 from .errors import ParameterError, SimulationError
 from .helix import Helix
+from .hydro.options import Hydrodynamics
 from .hydro.rft import pinned_helix, pinned_omega_per_torque
 from .integrate import ATOL_PER_RTOL
 from .integrate.base import STEPPERS, make_stepper
@@ -131,6 +132,9 @@ class Simulator:
     thermal : add thermal noise at ``params.fluid.kT`` (needs ``method="implicit"``).
     seed : seed of the random stream (thermal runs).
     solver : :class:`SolverOptions`.
+    hydrodynamics : the filament's mobility (:class:`~flagellum.hydro.dynamics.Hydrodynamics`,
+        default local RFT); a nonlocal one is frozen over the chunks between chart checks
+        and rebuilt as it says.
 
     The run starts at t = 0 from the stress-free helix turned onto its pinned rotation axis
     (:func:`flagellum.hydro.rft.pinned_helix`); :meth:`from_state` starts from a given state.
@@ -140,14 +144,19 @@ class Simulator:
 
     def __init__(self, params: Params | None = None, motor: Motor | None = None,
                  boundary: Boundary | None = None, *, thermal: bool = False,
-                 seed: int | None = None, solver: SolverOptions | None = None):
+                 seed: int | None = None, solver: SolverOptions | None = None,
+                 hydrodynamics: Hydrodynamics | None = None):
         self.params = params or Params()
+        self.hydrodynamics = hydrodynamics or Hydrodynamics()
         self.motor = motor or Motor()
         self.boundary = boundary or Boundary()
         self.solver = solver or SolverOptions(method="implicit" if thermal else "cvode")
         self.thermal = bool(thermal)
         if self.thermal and self.params.fluid.kT <= 0:
             raise ParameterError("kT", self.params.fluid.kT, "> 0 for a thermal run")
+        if self.thermal and not self.hydrodynamics.is_local:
+            raise ParameterError("hydrodynamics", self.hydrodynamics.model, "'rft' for a thermal "
+                                 "run (noise of the nonlocal mobility is not implemented)")
         if self.thermal and self.solver.method != "implicit":
             raise ParameterError("method", self.solver.method, "'implicit' for a thermal run")
         if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
@@ -158,7 +167,8 @@ class Simulator:
             abs(self.motor.final_torque), abs(self.motor.torque), 1e-3)
         omega = 0.0 if f == "lab" else (float(f) if not isinstance(f, str) else
                                          pinned_omega_per_torque(self.params) * self.motor.final_torque)
-        self.model = RodModel(self.params, self.motor, self.boundary, omega_frame=omega)
+        self.model = RodModel(self.params, self.motor, self.boundary, omega_frame=omega,
+                              hydrodynamics=self.hydrodynamics)
         self.t = 0.0
         self.frame_angle = 0.0
         self.y = self.model.initial_state(pinned_helix(self.params, self.boundary))
@@ -172,7 +182,8 @@ class Simulator:
     def from_state(cls, state: State, params: Params | None = None, motor: Motor | None = None,
                    boundary: Boundary | None = None, *, t: float = 0.0,
                    omega_frame: float | None = None, thermal: bool = False,
-                   seed: int | None = None, solver: SolverOptions | None = None) -> "Simulator":
+                   seed: int | None = None, solver: SolverOptions | None = None,
+                   hydrodynamics: Hydrodynamics | None = None) -> "Simulator":
         """A simulator (arguments as for :class:`Simulator`) that starts at time ``t`` [s]
         from ``state``: e.g. a relative equilibrium in its co-rotating frame
         (:func:`flagellum.analysis.stability.relative_equilibrium`, with ``omega_frame``
@@ -184,7 +195,8 @@ class Simulator:
         starts from ``seed``. A state that does not fit the filament raises
         :class:`~flagellum.errors.ParameterError`.
         """
-        sim = cls(params, motor, boundary, thermal=thermal, seed=seed, solver=solver)
+        sim = cls(params, motor, boundary, thermal=thermal, seed=seed, solver=solver,
+                  hydrodynamics=hydrodynamics)
         sim._place(state, t, omega_frame)
         return sim
 
@@ -225,6 +237,7 @@ class Simulator:
         return {"params_toml": self.params.to_toml(), "spec": json.dumps(self.spec()),
                 "motor": json.dumps(asdict(self.motor)), "boundary": json.dumps(asdict(self.boundary)),
                 "solver": json.dumps(asdict(self.solver)), "thermal": self.thermal, "seed": self.seed,
+                "hydrodynamics": self.hydrodynamics.model,
                 "helix_radius": Helix.from_filament(self.params.filament).radius,
                 "segments": self.model.n, **io.provenance()}
 
@@ -232,7 +245,8 @@ class Simulator:
         """Everything needed to rebuild this simulator (JSON-serializable)."""
         return {"params": self.params.to_dict(), "motor": asdict(self.motor),
                 "boundary": asdict(self.boundary), "solver": asdict(self.solver),
-                "thermal": self.thermal, "seed": self.seed}
+                "thermal": self.thermal, "seed": self.seed,
+                "hydrodynamics": self.hydrodynamics.to_dict()}
 
     @classmethod
     def from_spec(cls, spec: dict) -> "Simulator":
@@ -240,10 +254,12 @@ class Simulator:
         if motor.get("schedule") is not None:
             motor["schedule"] = tuple(tuple(x) for x in motor["schedule"])
         return cls(Params.from_dict(spec["params"]), Motor(**motor), Boundary(**spec["boundary"]),
-                   thermal=spec["thermal"], seed=spec["seed"], solver=SolverOptions(**spec["solver"]))
+                   thermal=spec["thermal"], seed=spec["seed"], solver=SolverOptions(**spec["solver"]),
+                   hydrodynamics=Hydrodynamics.from_dict(spec.get("hydrodynamics")))
 
     # -- stepping ---------------------------------------------------------------------
     def _stepper(self):
+        self.model.refresh_mobility(self.y, force=True)
         return make_stepper(self.solver.method, self.model, self.t, self.y, self.solver,
                             kT=self.params.fluid.kT if self.thermal else 0.0, seed=self.seed,
                             rng_state=self._rng_state)
@@ -278,8 +294,10 @@ class Simulator:
             t_next = min(t_target, stepper.t + chunk)
             if t_target - t_next < 0.25 * chunk:
                 t_next = t_target
+            self.model.refresh_mobility(y)  # a nonlocal mobility: frozen over the chunk
             y = stepper.advance(t_next)
             if t_next < t_target and self.model.rechart(y, threshold=CHART_LIMIT):
+                self.model.refresh_mobility(y, force=True)
                 stepper.reset(t_next, y)
         return y
 
@@ -419,6 +437,7 @@ class Simulator:
                         self._checkpoint(files, plan, i + 1, wall0)
                     changed = True  # restart the integrator at checkpoints (resume = identical)
                 if changed:
+                    self.model.refresh_mobility(self.y, force=True)
                     stepper.reset(self.t, self.y)
         except OutputError:
             raise  # the parts and the last checkpoint stay as they are

@@ -170,6 +170,29 @@ def solver_from_cli(kwargs: dict, thermal: bool):
                          theta=kwargs.pop("theta"), scheme=kwargs.pop("scheme"), frame=frame)
 
 
+# -- hydrodynamics ------------------------------------------------------------------------
+
+def hydro_options(func):
+    """``--hydrodynamics`` (rft, sbt) and ``--hydro-refresh``."""
+    from ..hydro.options import MODELS, REFRESH
+
+    return _add(func, [
+        click.option("--hydrodynamics", type=click.Choice(MODELS), default="rft", show_default=True,
+                     help="filament mobility: local resistive-force theory (the paper's) or "
+                          "nonlocal slender-body theory (regularized Stokeslet segments)"),
+        click.option("--hydro-refresh", type=float, default=REFRESH, show_default=True,
+                     help="sbt: rebuild the frozen nonlocal mobility once a bead has moved this "
+                          "far [µm]; 0: at every evaluation"),
+    ])
+
+
+def hydro_from_cli(kwargs: dict):
+    """Pop the hydrodynamics flags from ``kwargs`` and build a validated ``Hydrodynamics``."""
+    from ..hydro.options import Hydrodynamics
+
+    return Hydrodynamics(kwargs.pop("hydrodynamics"), refresh=kwargs.pop("hydro_refresh"))
+
+
 # -- input files --------------------------------------------------------------------------
 
 def existing_file(path: str) -> Path:

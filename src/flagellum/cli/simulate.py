@@ -6,8 +6,9 @@ import math
 
 import click
 
-from ._options import (boundary_from_cli, boundary_options, motor_from_cli, motor_options,
-                       param_options, params_from_cli, solver_from_cli, solver_options)
+from ._options import (boundary_from_cli, boundary_options, hydro_from_cli, hydro_options,
+                       motor_from_cli, motor_options, param_options, params_from_cli,
+                       solver_from_cli, solver_options)
 from ._output import emit_json, emit_table
 
 
@@ -22,6 +23,7 @@ from ._output import emit_json, emit_table
 @click.option("--thermal", is_flag=True, help="thermal noise at kT (also implied by --kT)")
 @click.option("--seed", type=int, default=0, show_default=True, help="random seed (thermal runs)")
 @solver_options
+@hydro_options
 @click.option("--output", "-o", type=click.Path(dir_okay=False), default=None, help="HDF5 trajectory file")
 @click.option("--checkpoint-every", type=float, default=None,
               help="write records and a checkpoint every T simulated seconds (with --output)")
@@ -46,7 +48,8 @@ def simulate(t_end, save_every, average_from, thermal, seed, output, checkpoint_
     motor = motor_from_cli(kwargs)
     boundary = boundary_from_cli(kwargs)
     solver = solver_from_cli(kwargs, thermal)
-    sim = Simulator(params, motor, boundary, thermal=thermal, seed=seed, solver=solver)
+    sim = Simulator(params, motor, boundary, thermal=thermal, seed=seed, solver=solver,
+                    hydrodynamics=hydro_from_cli(kwargs))
     traj = sim.run(t_end, save_every=save_every if save_every is not None else t_end / 300,
                    output=output, progress=False if as_json else None,
                    checkpoint_every=checkpoint_every)
@@ -56,7 +59,7 @@ def simulate(t_end, save_every, average_from, thermal, seed, output, checkpoint_
 def _report_run(sim, traj, average_from, output, as_json):
     out = {**traj.summary(average_from).to_dict(), "steps": sim.steps,
            "wall_seconds": sim.wall_seconds, "torque": sim.motor.final_torque,
-           "segments": sim.params.filament.n_segments}
+           "segments": sim.params.filament.n_segments, "hydrodynamics": sim.hydrodynamics.model}
     if sim.boundary.anchor == "free" and sim.boundary.sphere_radius:
         out["body_rotation_rate"] = sim.boundary.body_rotation_rate(sim.motor.final_torque,
                                                                     sim.params.fluid.viscosity)

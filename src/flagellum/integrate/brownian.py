@@ -33,7 +33,6 @@ from ..errors import SimulationError
 from ..hydro import local as L
 from ..rod import kernels as K
 from .banded import band_factor, band_solve
-from .cvode import KL, KU
 
 RFD_DELTA = 1e-6
 #: Newton tolerance [µm, rad]: 100× below the local error of one step at the default Δt
@@ -199,7 +198,8 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
     ``torques[k]`` is the motor torque at the end of step k. ``normals`` (n_steps, m) holds
     the unit normals of each step (m = 0 for deterministic runs). ``hist`` = [history valid,
     its Δt, β of the factorized Jacobian, factors pivoted]; work[11], work[12] hold y_{n−1}
-    and b_{n−1}; ``xwork`` (length ny + KL + KU) is scratch of the solve. Returns (status,
+    and b_{n−1}; ``xwork`` (length ny + kl + ku, the Jacobian's band: ``ab`` has 2kl + ku + 1 columns,
+    ``backup`` kl + ku + 1) is scratch of the solve. Returns (status,
     steps done, Newton iterations, Jacobians, jac_age); status
     0 = ok, 1 = Newton failed, 2 = non-finite state.
     """
@@ -221,7 +221,9 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
     aa_a, aa_gam = np.zeros((aa_m, aa_m)), np.zeros(aa_m)
     n_iter = 0
     n_jac = 0
-    kv = KL + KU
+    kl = ab.shape[1] - backup.shape[1]  # the model's Jacobian band, from the storage sizes
+    ku = backup.shape[1] - 1 - kl
+    kv = kl + ku
     T, E1, E2, LEN, S = ws[0], ws[1], ws[2], ws[3], ws[4]
     bdf2 = theta == 0.0
     for k in range(n_steps):
@@ -255,12 +257,12 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
             fresh = jac_age < 0 or jac_age >= jac_every
             if fresh:
                 K.rhs(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
-                K.colored_jacobian(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, KL, KU, ab,
+                K.colored_jacobian(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, kl, ku, ab,
                                    -beta * dt, yw, fw, colors[0], colors[1], colors[2])
                 for j in range(ny):
                     ab[j, kv] += 1.0
                 hist[2] = beta
-                info, pivoted = band_factor(ab, KL, KU, ipiv, backup)
+                info, pivoted = band_factor(ab, kl, ku, ipiv, backup)
                 if info != 0:
                     return 1, k, n_iter, n_jac, -1
                 hist[3] = 1.0 if pivoted else 0.0
@@ -271,7 +273,7 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
                 K.rhs(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
             for i in range(ny):
                 d[i] = -(y[i] - fn[i] - beta * dt * f[i])
-            band_solve(ab, KL, KU, ipiv, d, hist[3] != 0.0, xwork)
+            band_solve(ab, kl, ku, ipiv, d, hist[3] != 0.0, xwork)
             err = 0.0
             for i in range(ny):
                 err = max(err, abs(d[i]))
@@ -342,11 +344,12 @@ class ImplicitStepper:
             self.tol = max(self.tol, THERMAL_TOL_FRACTION * step)
         self.slow, self.max_iter = float(slow), int(max_iter)
         ny = len(y0)
-        self._ab = np.zeros((ny, 2 * KL + KU + 1))
+        self._kl, self._ku = kl, ku = model.jacobian_band
+        self._ab = np.zeros((ny, 2 * kl + ku + 1))
         self._ipiv = np.zeros(ny, np.int64)
-        self._backup = np.zeros((ny, KL + KU + 1))
+        self._backup = np.zeros((ny, kl + ku + 1))
         self._work = np.zeros((13, ny))
-        self._xwork = np.zeros(ny + KL + KU)
+        self._xwork = np.zeros(ny + kl + ku)
         self._hist = np.zeros(4)
         self._n_normals = (4 * (model.n + 1) + 3 + ny) if self.kT > 0 else 0
         self.n_steps = self.n_iter = self.n_jac = 0
@@ -402,7 +405,7 @@ class ImplicitStepper:
             self.y, t0, k, dt, self.theta, m.prm, m.iprm, m.ref_u, m.ref_e, m.ref_m, self.kT, torques,
             np.ascontiguousarray(normals), m._ws, self._ab, self._ipiv, self._backup, self._jac_age,
             self.jac_every, self._work, self._xwork, self.tol, self.max_iter, self.slow, self._hist,
-            m.jacobian_colors(KL, KU))
+            m.jacobian_colors(self._kl, self._ku))
         self.n_steps += done
         self.n_iter += it
         self.n_jac += nj

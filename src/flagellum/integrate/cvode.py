@@ -5,6 +5,11 @@ banded Jacobian from :func:`flagellum.rod.kernels.colored_jacobian` in a single 
 a Jacobian costs one kernel evaluation per colour (23 for the rod; kl + ku + 1 = 28 for a full
 band) and no Python round trips per column.
 See ``docs/numerics.md`` for the comparison with scipy's BDF/Radau/LSODA that chose it.
+
+With a nonlocal mobility the Jacobian is dense; the Newton systems are then solved by GMRES
+(matrix-free products from the right-hand side) preconditioned by the factorized banded
+iteration matrix I − γJ of the local operator plus the near field of ΔM, the splitting of
+Tornberg & Shelley (2004) (docs/hydrodynamics.md).
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import SimulationError
+from .banded import band_factor, band_solve
 from ..rod import kernels as K
 from ..rod.model import JACOBIAN_BAND
 
@@ -59,10 +65,15 @@ class CvodeStepper:
         self.rtol, self.atol, self.max_step = rtol, atol, max_step
         self.max_num_steps = int(max_num_steps)
         n = len(y0)
-        self._ab = np.zeros((n, 2 * KL + KU + 1))
+        self._kl, self._ku = model.jacobian_band  # JACOBIAN_BAND, wider with a nonlocal mobility
+        self._ab = np.zeros((n, 2 * self._kl + self._ku + 1))
         self._yw = np.zeros(n)
         self._fw = np.zeros(n)
         self._f0 = np.zeros(n)
+        self._pab = np.zeros_like(self._ab)  # factorized I − γJ (nonlocal: the preconditioner)
+        self._ipiv = np.zeros(n, np.int64)
+        self._backup = np.zeros((n, self._kl + self._ku + 1))
+        self._pivoted = True
         self.n_jac = 0
         self.n_steps = 0
         self._t_max = -np.inf
@@ -85,15 +96,46 @@ class CvodeStepper:
         m = self.model
         m.prm[K.P_TORQUE] = m.motor(t)
         K.colored_jacobian(y, yp, m.prm, m.iprm, m.ref_u, m.ref_e, m.ref_m, m._zf, m._zm, m._zh,
-                           m._ws, KL, KU, self._ab, 1.0, self._yw, self._fw, *m.jacobian_colors(KL, KU))
-        _band_to_dense(self._ab, KL, KU, jj)
+                           m._ws, self._kl, self._ku, self._ab, 1.0, self._yw, self._fw,
+                           *m.jacobian_colors(self._kl, self._ku))
+        _band_to_dense(self._ab, self._kl, self._ku, jj)
         self.n_jac += 1
+
+    def _band_jacobian(self, t, y, yp):
+        m = self.model
+        m.prm[K.P_TORQUE] = m.motor(t)
+        K.colored_jacobian(y, yp, m.prm, m.iprm, m.ref_u, m.ref_e, m.ref_m, m._zf, m._zm, m._zh,
+                           m._ws, self._kl, self._ku, self._ab, 1.0, self._yw, self._fw,
+                           *m.jacobian_colors(self._kl, self._ku))
+        self.n_jac += 1
+
+    def _psetup(self, t, y, yp, jok, jnew, gamma):
+        if not jok:
+            self._band_jacobian(t, y, yp)
+        jnew[0] = 0 if jok else 1
+        kv = self._kl + self._ku
+        self._pab[:] = -gamma * self._ab
+        self._pab[:, kv] += 1.0
+        info, self._pivoted = band_factor(self._pab, self._kl, self._ku, self._ipiv, self._backup)
+        if info != 0:
+            raise SimulationError(f"singular preconditioner at t = {t:.6g} s")
+
+    def _psolve(self, t, y, yp, rvec, zvec, gamma, delta, lr):
+        z = np.array(rvec, float)
+        band_solve(self._pab, self._kl, self._ku, self._ipiv, z, self._pivoted)
+        zvec[:] = z
 
     def reset(self, t0: float, y0: np.ndarray) -> None:
         self.t = float(t0)
         self.y = np.array(y0, float)
-        self._solver = self._CVODE(self._rhs, jacfn=self._jac, linsolver="band", lband=KL,
-                                   uband=KU, rtol=self.rtol, atol=self.atol,
+        if self.model.jacobian_band == (KL, KU):
+            linear = dict(jacfn=self._jac, linsolver="band", lband=self._kl, uband=self._ku)
+        else:
+            from sksundae.cvode import CVODEPrecond
+
+            linear = dict(linsolver="gmres", krylov_dim=10,
+                          precond=CVODEPrecond(self._psetup, self._psolve, side="left"))
+        self._solver = self._CVODE(self._rhs, **linear, rtol=self.rtol, atol=self.atol,
                                    max_step=self.max_step, max_num_steps=self.max_num_steps)
         self._solver.init_step(self.t, self.y)
 

@@ -200,24 +200,48 @@ def bead_gradient(n, h, K, T, LEN, GT, DR):
 # indices into the packed parameter arrays of :func:`rhs`
 P_H, P_A, P_C, P_K, P_KAPPA, P_TAU, P_HOOKK, P_SPHERE, P_GPAR, P_GPERP, P_GROT, P_TORQUE, \
     P_OMEGA, P_ELASTIC = range(14)
-I_N, I_HOOK, I_ANCHOR, I_GEN = range(4)
+I_N, I_HOOK, I_ANCHOR, I_GEN, I_HYDRO = range(5)
+#: iprm[I_HYDRO]: the bead mobility of :func:`rhs`. HYDRO_LOCAL: the local drag of
+#: :mod:`flagellum.hydro.local` alone (RFT); HYDRO_FROZEN: plus the frozen dense correction
+#: ΔM (the workspace's last array, U += ΔM F; :mod:`flagellum.hydro.dynamics`); HYDRO_BANDED:
+#: plus its 3×3 blocks between beads at most NEAR_BEADS apart (the banded operator the
+#: Jacobian is taken of: the near field that sets the stiff bead-scale modes)
+HYDRO_LOCAL, HYDRO_FROZEN, HYDRO_BANDED = 0, 1, 2
+NEAR_BEADS = 2
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def workspace(n):
-    """(T, E1, E2, LEN, S, GT, GTH, DR, V, A1): see :func:`frames`, :func:`elastic`, :func:`rhs`."""
+def workspace(n, nonlocal_size=0):
+    """(T, E1, E2, LEN, S, GT, GTH, DR, V, A1, DM): see :func:`frames`, :func:`elastic`,
+    :func:`rhs`; DM (``nonlocal_size`` square, 3(n+1) for a nonlocal mobility) is the frozen
+    mobility correction ΔM."""
     n1 = n + 1
     return (np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros(n1),
             np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros(n1), np.zeros((n1, 3)),
-            np.zeros((n1, 3)), np.zeros((n1, 3)))
+            np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros((nonlocal_size, nonlocal_size)))
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def _add_correction(DM, DR, V, n, width):
+    """V += ΔM F with F = −DR, from the blocks of ΔM between beads at most ``width`` apart."""
+    for i in range(n + 1):
+        lo, hi = max(0, i - width), min(n + 1, i + width + 1)
+        for a in range(3):
+            row = 3 * i + a
+            acc = 0.0
+            for k in range(lo, hi):
+                c = 3 * k
+                acc -= DM[row, c] * DR[k, 0] + DM[row, c + 1] * DR[k, 1] + DM[row, c + 2] * DR[k, 2]
+            V[i, a] += acc
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
-    """Overdamped RFT dynamics (paper eqs. 5–6 and the hook balance of §2.3).
+    """Overdamped dynamics (paper Eqs. (5)–(6) and the hook balance of Sec. 2.3).
 
     Lab-frame velocities from [γ∥ tt + γ⊥(1 − tt)] w v = f (w = h, end beads h/2, t the
-    averaged tangent), spin γR h ω3 = m, hook [γR h t0t0 + ½γ⊥h³(1 − t0t0)] ω = M e_z − τ;
+    averaged tangent; with iprm[I_HYDRO] ≠ HYDRO_LOCAL plus the frozen nonlocal correction
+    ΔM f of the bead forces, see :func:`_add_correction`), spin γR h ω3 = m, hook [γR h t0t0 + ½γ⊥h³(1 − t0t0)] ω = M e_z − τ;
     then written in a frame rotating at Ω = prm[P_OMEGA] about e_z.
 
     ``ext_f`` (n+1, 3), ``ext_m`` (n+1): extra forces on the beads and torques about the
@@ -231,7 +255,7 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
     h = prm[P_H]
     gpar, gperp, grot = prm[P_GPAR], prm[P_GPERP], prm[P_GROT]
     omega_frame = prm[P_OMEGA]
-    T, E1, E2, LEN, S, GT, GTH, DR, V, A1 = ws
+    T, E1, E2, LEN, S, GT, GTH, DR, V, A1, DM = ws
     el = prm[P_ELASTIC]
     if el == 0.0:  # mobility only (thermal increments): no elastic forces to compute
         frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1)
@@ -267,6 +291,9 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
         tx, ty, tz, zpar, zperp, mode = L.bead_friction(T, i, n, h, gpar, gperp, anchor, zeta)
         V[i, 0], V[i, 1], V[i, 2] = L.bead_velocity(-DR[i, 0], -DR[i, 1], -DR[i, 2], tx, ty, tz,
                                                     zpar, zperp, mode)
+    hydro = iprm[I_HYDRO]
+    if hydro != HYDRO_LOCAL:  # nonlocal mobility: U = M_local(y) F + ΔM F, ΔM frozen
+        _add_correction(DM, DR, V, n, NEAR_BEADS if hydro == HYDRO_BANDED else n)
     for i in range(n + 1):  # positions in the rotating frame
         o = 3 + 4 * i
         ydot[o] = V[i, 0] + omega_frame * y[o + 1]
@@ -312,21 +339,27 @@ def colored_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_ho
 
     Column j can change only rows lo[j] … hi[j] (within the band); columns of equal
     ``color`` have disjoint row ranges and are perturbed together (Curtis, Powell & Reid).
+    With the frozen nonlocal mobility (``HYDRO_FROZEN``) this is the Jacobian of the banded
+    operator (``HYDRO_BANDED``: the near-field blocks of ΔM), ``f0`` then recomputed with it.
     """
     n = y.shape[0]
     kv = kl + ku
     ab[:, :] = 0.0
+    ip, base = iprm.copy(), f0.copy()
+    if ip[I_HYDRO] == HYDRO_FROZEN:
+        ip[I_HYDRO] = HYDRO_BANDED
+        rhs(y, base, prm, ip, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws)
     for g in range(color.max() + 1):
         y_work[:] = y
         for j in range(n):
             if color[j] == g:
                 y_work[j] += 1e-7 * max(1.0, abs(y[j]))
-        rhs(y_work, f_work, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws)
+        rhs(y_work, f_work, prm, ip, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws)
         for j in range(n):
             if color[j] == g:
                 inv = scale / (y_work[j] - y[j])
                 for i in range(lo[j], hi[j] + 1):
-                    ab[j, kv + i - j] = (f_work[i] - f0[i]) * inv
+                    ab[j, kv + i - j] = (f_work[i] - base[i]) * inv
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")

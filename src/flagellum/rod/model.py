@@ -12,6 +12,8 @@ from typing import NamedTuple
 import numpy as np
 
 from ..helix import DiscreteHelix, discrete_helix
+from ..hydro.dynamics import correction
+from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
 from ..params import Params
 from . import kernels as K
@@ -19,6 +21,9 @@ from . import kernels as K
 #: (lower, upper) bandwidth of the right-hand side's Jacobian in the bead-by-bead state
 #: ordering; tight for every boundary and hook (tests/test_rod.py)
 JACOBIAN_BAND = (15, 11)
+#: the same with a nonlocal mobility: its near field (ΔM between neighbouring beads,
+#: :data:`~flagellum.rod.kernels.NEAR_BEADS`) couples one more bead each way
+NONLOCAL_JACOBIAN_BAND = (23, 19)
 
 _HOOK = {"free": K.HOOK_FREE, "elastic": K.HOOK_ELASTIC, "clamped": K.HOOK_CLAMPED}
 _ANCHOR = {"fixed": K.ANCHOR_FIXED, "sphere": K.ANCHOR_SPHERE, "free": K.ANCHOR_FREE}
@@ -48,13 +53,18 @@ class RodModel:
     omega_frame : angular velocity [rad/s] of the computational frame about e_z. Lab-frame
         positions are R_z(omega_frame·t) applied to the state. A frame co-rotating with the
         filament makes the aligned steady state a fixed point.
+    hydrodynamics : the bead mobility (:class:`~flagellum.hydro.dynamics.Hydrodynamics`;
+        default local RFT). A nonlocal one enters through the frozen correction ΔM that
+        :meth:`refresh_mobility` builds (the first :meth:`rhs` call builds it if needed).
     """
 
     def __init__(self, params: Params | None = None, motor: Motor | None = None,
-                 boundary: Boundary | None = None, omega_frame: float = 0.0):
+                 boundary: Boundary | None = None, omega_frame: float = 0.0,
+                 hydrodynamics: Hydrodynamics | None = None):
         self.params = params or Params()
         self.motor = motor or Motor()
         self.boundary = boundary or Boundary()
+        self.hydrodynamics = hydrodynamics or Hydrodynamics()
         self.omega_frame = float(omega_frame)
         f = self.params.filament
         self.n = f.n_segments
@@ -65,7 +75,9 @@ class RodModel:
         self.ref_u = np.zeros((n1, 3))
         self.ref_e = np.zeros((n1, 3))
         self.ref_m = np.zeros(n1)  #: last known reference twist of each joint (branch of ψ)
-        self._ws = K.workspace(self.n)
+        self._nonlocal = not self.hydrodynamics.is_local
+        self._ws = K.workspace(self.n, 3 * n1 if self._nonlocal else 0)
+        self._frozen = None  #: bead positions the nonlocal correction ΔM was built at
         self._zf = np.zeros((n1, 3))
         self._zm = np.zeros(n1)
         self._zh = np.zeros(3)
@@ -75,8 +87,8 @@ class RodModel:
         self.prm = np.array([self.h, f.bend_rigidity, f.twist_rigidity, f.stretch_modulus,
                              f.kappa0, f.torsion, self.boundary.hook_stiffness,
                              self.sphere_drag, gp, gn, gr, self.motor(0.0), self.omega_frame, 1.0])
-        self.iprm = np.array([self.n, _HOOK[self.boundary.hook], _ANCHOR[self.boundary.anchor], 0],
-                             dtype=np.int64)
+        self.iprm = np.array([self.n, _HOOK[self.boundary.hook], _ANCHOR[self.boundary.anchor], 0,
+                              K.HYDRO_FROZEN if self._nonlocal else K.HYDRO_LOCAL], dtype=np.int64)
 
     # -- state -----------------------------------------------------------------------
     def initial_state(self, helix: DiscreteHelix | None = None) -> np.ndarray:
@@ -156,6 +168,11 @@ class RodModel:
         K.bead_gradient(n, h, Kst, w.T, w.LEN, w.GT, dr)
         return e, dr, w.GTH.copy(), w.GT.copy()
 
+    @property
+    def jacobian_band(self) -> tuple[int, int]:
+        """(lower, upper) bandwidth of the Jacobian the stiff solvers use for this model."""
+        return NONLOCAL_JACOBIAN_BAND if self._nonlocal else JACOBIAN_BAND
+
     def jacobian_colors(self, kl: int, ku: int):
         """(color, lo, hi) for :func:`~flagellum.rod.kernels.colored_jacobian`: the rows each
         column of the Jacobian can reach, found once from finite differences at two generic
@@ -168,12 +185,14 @@ class RodModel:
             prm = self.prm.copy()
             prm[K.P_TORQUE], prm[K.P_OMEGA] = 1.0, 300.0
             charts = (self.ref_u.copy(), self.ref_e.copy(), self.ref_m.copy())
+            frozen = (self._ws[-1].copy(), self._frozen)
             nz = np.zeros((ny, 2 * kl + ku + 1), bool)
             ab = np.zeros_like(nz, dtype=float)
             for _ in range(2):
                 y = self.initial_state()
                 y[3:] += rng.normal(0.0, 0.02, ny - 3)
                 y[:3] += rng.normal(0.0, 0.1, 3)
+                self.refresh_mobility(y, force=True)  # no-op for the local model
                 f0 = np.zeros(ny)
                 K.rhs(y, f0, prm, self.iprm, self.ref_u, self.ref_e, self.ref_m, self._zf,
                       self._zm, self._zh, self._ws)
@@ -181,6 +200,7 @@ class RodModel:
                                 self._zm, self._zh, self._ws, kl, ku, ab, 1.0, np.zeros(ny), np.zeros(ny))
                 nz |= ab != 0.0
             self.set_charts(*charts)
+            self._ws[-1][:], self._frozen = frozen
             rows = np.arange(ny)[:, None] + np.arange(-kl - ku, kl + 1)[None, :]
             rows = np.where(nz, rows, -1)
             hi = rows.max(axis=1)
@@ -193,8 +213,27 @@ class RodModel:
         self.omega_frame = float(omega)
         self.prm[K.P_OMEGA] = self.omega_frame
 
+    def refresh_mobility(self, y: np.ndarray, force: bool = False) -> bool:
+        """Rebuild the frozen nonlocal correction ΔM at the beads of y if one has moved by more
+        than ``hydrodynamics.refresh`` since the last build (always with ``force``); returns
+        whether it did. A no-op for the local model."""
+        if not self._nonlocal:
+            return False
+        x = positions(y)
+        if not force and self._frozen is not None and (
+                np.max(np.abs(x - self._frozen)) <= self.hydrodynamics.refresh):
+            return False
+        fluid = self.params.fluid
+        self._ws[-1][:] = correction(x, self.h, self.gammas, _ANCHOR[self.boundary.anchor],
+                                     self.sphere_drag, fluid.filament_radius, fluid.viscosity,
+                                     self.boundary.sphere_radius or 0.0)
+        self._frozen = x.copy()
+        return True
+
     def rhs(self, t: float, y: np.ndarray, noise_f=None, noise_m=None, out=None) -> np.ndarray:
         """dy/dt at time t (scipy's ``fun(t, y)``); optional thermal forces/torques."""
+        if self._nonlocal and (self._frozen is None or self.hydrodynamics.refresh == 0.0):
+            self.refresh_mobility(y, force=True)
         ydot = np.empty_like(y) if out is None else out
         self.prm[K.P_TORQUE] = self.motor(t)
         res = K.rhs(y, ydot, self.prm, self.iprm, self.ref_u, self.ref_e, self.ref_m,
@@ -260,3 +299,4 @@ class _Workspace(NamedTuple):
     DR: np.ndarray
     V: np.ndarray
     A1: np.ndarray
+    DM: np.ndarray

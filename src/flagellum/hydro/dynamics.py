@@ -1,0 +1,117 @@
+"""The hydrodynamic model of the time stepper: local drag (RFT) or the nonlocal mobility of
+:mod:`flagellum.hydro.sbt`, and the frozen correction that carries the latter into the rod's
+right-hand side (see docs/hydrodynamics.md, "Integration").
+
+With ``model="sbt"`` the bead velocities are U = M_loc(y) F + ΔM F, where M_loc is the local
+drag of :mod:`flagellum.hydro.local` (block diagonal, evaluated at the current state, so the
+banded Jacobian and its stiffness treatment stay as they are) and ΔM = M_eff(x*) − M_loc(x*)
+the dense difference to the nonlocal mobility, built from frozen bead positions x* and
+rebuilt when a bead has moved by more than ``refresh`` from them (in the splitting of
+Tornberg & Shelley, J. Comput. Phys. 196, 8 (2004)). The bond spins and the hook frame keep
+their local friction.
+
+M_eff is the mobility of the beads under the anchor's constraints, from the resistance of the
+filament plus (load sphere, free swimmer's body) a sphere of radius a centred on bead 0 and
+moving with it: the sphere's flow at bead k is G(x_k − x_0) F_s and, by reciprocity (Faxén's
+law), the filament's flow moves the sphere by Σ G F_k, with
+G(r) = [(1 + rr/r²)/r + a²/3 (1 − 3rr/r²)/r³]/8πη for r ≥ a (the exact flow of a translating
+sphere) and 1/(6πηa) inside it. Constrained bead-0 components (anchored: all three; load
+sphere: x, y) are removed in the resistance form, i.e. their reaction forces do act on the
+fluid.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import local as L
+from . import sbt
+from .options import MODELS, REFRESH, Hydrodynamics
+
+def bond_tangents(x: np.ndarray) -> np.ndarray:
+    """The (n+1, 3) tangent table of :func:`flagellum.hydro.local.bead_node` (row i ≥ 1: the
+    unit vector of bond i; row 0, the hook frame, is not used there)."""
+    d = np.diff(x, axis=0)
+    T = np.zeros_like(x)
+    T[1:] = d / np.linalg.norm(d, axis=1)[:, None]
+    return T
+
+
+def local_mobility(x, h, gpar, gperp, anchor, zeta) -> np.ndarray:
+    """Block-diagonal mobility (3(n+1) square) of the local drag of :mod:`flagellum.hydro.local`
+    at bead positions x: the operator of :func:`flagellum.rod.kernels.rhs` without ΔM."""
+    n = len(x) - 1
+    T = bond_tangents(x)
+    M = np.zeros((3 * (n + 1), 3 * (n + 1)))
+    for i in range(n + 1):
+        tx, ty, tz, zpar, zperp, mode = L.bead_friction(T, i, n, h, gpar, gperp, anchor, zeta)
+        blk = M[3 * i:3 * i + 3, 3 * i:3 * i + 3]
+        if mode == L.AXIAL:
+            blk[2, 2] = 1.0 / zpar
+        elif mode == L.FREE:
+            t = np.array([tx, ty, tz])
+            blk[:] = np.eye(3) / zperp + (1.0 / zpar - 1.0 / zperp) * np.outer(t, t)
+    return M
+
+
+def sphere_coupling(r: np.ndarray, a: float, viscosity: float) -> np.ndarray:
+    """(m, 3, 3) blocks G(r) of a translating sphere of radius a at offsets r (m, 3): the flow
+    at r per force on the sphere, and (Faxén's law) the sphere's velocity per point force at r."""
+    d = np.linalg.norm(r, axis=1)
+    out = np.empty((len(r), 3, 3))
+    inside = d < a
+    out[inside] = np.eye(3) / (6 * math.pi * viscosity * a)
+    o = ~inside
+    ro, do = r[o], d[o][:, None, None]
+    rr = ro[:, :, None] * ro[:, None, :] / do ** 2
+    out[o] = ((np.eye(3) + rr) / do + a * a / 3 * (np.eye(3) - 3 * rr) / do ** 3) / (8 * math.pi * viscosity)
+    return out
+
+
+def effective_mobility(x, radius, viscosity, anchor, sphere_radius=0.0) -> np.ndarray:
+    """Nonlocal bead mobility (3(n+1) square) under the anchor's constraints: U = M_eff F with
+    F the applied bead forces (see the module docstring). ``anchor`` a code of
+    :mod:`flagellum.hydro.local` (FIXED, AXIAL, FREE)."""
+    n1 = len(x)
+    M = sbt.mobility(x, radius, viscosity)
+    if anchor != L.FIXED and sphere_radius > 0:  # add the sphere as node n1, moving with bead 0
+        G = sphere_coupling(x - x[0], sphere_radius, viscosity).transpose(0, 2, 1).reshape(3 * n1, 3)
+        big = np.zeros((3 * n1 + 3, 3 * n1 + 3))
+        big[:3 * n1, :3 * n1] = M
+        big[:3 * n1, 3 * n1:] = G
+        big[3 * n1:, :3 * n1] = G.T
+        big[3 * n1:, 3 * n1:] = np.eye(3) / (6 * math.pi * viscosity * sphere_radius)
+        R = _attach(np.linalg.inv(big), n1)
+    else:
+        R = np.linalg.inv(M)
+    free = np.ones(3 * n1, bool)
+    if anchor == L.FIXED:
+        free[:3] = False
+    elif anchor == L.AXIAL:
+        free[:2] = False
+    out = np.zeros((3 * n1, 3 * n1))
+    out[np.ix_(free, free)] = np.linalg.inv(R[np.ix_(free, free)])
+    return out
+
+
+def _attach(R: np.ndarray, n1: int) -> np.ndarray:
+    """Pᵀ R P for P the map of bead velocities to (bead velocities, sphere velocity = bead 0's)."""
+    m = 3 * n1
+    out = R[:m, :m].copy()
+    out[:, :3] += R[:m, m:]
+    out[:3, :] += R[m:, :m]
+    out[:3, :3] += R[m:, m:]
+    return out
+
+
+def correction(x, h, gammas, anchor, zeta, radius, viscosity, sphere_radius=0.0) -> np.ndarray:
+    """ΔM = M_eff − M_loc at frozen bead positions x (:func:`effective_mobility`,
+    :func:`local_mobility`); ``gammas`` (γ∥, γ⊥, γR) of the local drag."""
+    return (effective_mobility(x, radius, viscosity, anchor, sphere_radius)
+            - local_mobility(x, h, gammas[0], gammas[1], anchor, zeta))
+
+
+__all__ = ["Hydrodynamics", "MODELS", "REFRESH", "correction", "effective_mobility",
+           "local_mobility", "sphere_coupling"]

@@ -69,8 +69,8 @@ def test_quick_target(fig, tmp_path, shared):
     for key in HEADLINE[fig]:
         assert key in res
     check_outputs(tmp_path, fig)
-    # literature bounds around the paper's stated numbers: §3.1 (Fig. 3 caption) M_c1 ≈ 1.1,
-    # M_c2 ≈ 4.2 pN·µm, the RFT line of App. A (F/M 0.8–1.02 /µm, docs/validation.md); §3.1:
+    # literature bounds around the paper's stated numbers: Sec. 3.1.1 (Fig. 3 caption) M_c1 ≈ 1.1,
+    # M_c2 ≈ 4.2 pN·µm, the RFT line of App. A (F/M 0.8–1.02 /µm, docs/validation.md); Sec. 3.1.2:
     # σ/σ0 = √(2 kT L/A) = 0.153 by equipartition (closed form; paper "≈ 0.15")
     if fig == "fig3":
         assert 0.9 < res["M_c1"] < 1.3

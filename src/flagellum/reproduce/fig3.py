@@ -1,11 +1,11 @@
-"""Fig. 3 (``fig: RotStat``): thrust F versus motor torque M with the four regimes, the RFT
+"""Fig. 3 (Sec. 3.1.1): thrust F versus motor torque M with the four regimes, the RFT
 line, F(t) in each regime, and the trajectory of the tip of the first tangent vector.
 
 Method
 ------
 * A deterministic simulation per torque (:func:`.common.simulate_point`), anchored filament,
   free hook, N = 50. Torques M < 2 start from the stress-free helix; larger torques follow
-  the paper's protocol (§3.1.2): rotate at M = 1 pN·µm, then step to M (within 0.01 s).
+  the paper's protocol (Sec. 3.1.2): rotate at M = 1 pN·µm, then step to M (within 0.01 s).
   Observables are averaged over the last half of the run (after the step).
 * Regime of each run: :func:`flagellum.analysis.regimes.classify`, with regime (iv)
   required to have σ/σ0 > 1.5 (see :data:`flagellum.analysis.regimes.SIGMA_IV`).

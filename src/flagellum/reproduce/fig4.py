@@ -1,4 +1,4 @@
-"""Fig. 4 (``fig: RotStatII``): (a) relaxation rate λ of the aligned state versus M,
+"""Fig. 4 (Sec. 3.1.2): (a) relaxation rate λ of the aligned state versus M,
 (b) rotation rate ω and precession rate χ, (c) mean end-to-end distance ⟨r⟩/L0 and
 (d) its standard deviation σ/σ0 (σ0 = R/√2), with thermal (Brownian) points.
 

@@ -1,5 +1,5 @@
-"""Fig. 5 (``fig: dynamic``): the filament attached to a load sphere of radius a that moves
-along z. (a) critical torque M_c1 versus 1/a, with the eq. (25) line in the inset;
+"""Fig. 5 (Sec. 3.2): the filament attached to a load sphere of radius a that moves
+along z. (a) critical torque M_c1 versus 1/a, with the Eq. (16) line in the inset;
 (b) critical thrust F_c1 versus M_c1.
 
 Method
@@ -7,10 +7,10 @@ Method
 * M_c1 and F_c1 for each 1/a from the linear stability of the aligned, steadily
   rotating and translating filament (:func:`flagellum.analysis.stability.critical_torque`,
   N = 50, free hook); 1/a = 0 is the anchored filament. The bracket of each root is
-  seeded by the rod theory of §4 (:func:`flagellum.theory.manifold.load_sphere_curve`) and
+  seeded by the rod theory of Sec. 4 (:func:`flagellum.theory.manifold.load_sphere_curve`) and
   widened until λ changes sign.
 * The critical line M_c1 = intercept + slope/a: least-squares fit for 1/a ≤ 1 µm⁻¹
-  (biological cell sizes a ≈ 1–2 µm), next to eq. (25) with the full-turn RFT coefficients
+  (biological cell sizes a ≈ 1–2 µm), next to Eq. (16) with the full-turn RFT coefficients
   and our anchored F_c1 (:func:`flagellum.hydro.rft.critical_torque_line`).
 * "Linear up to 1/a": the first 1/a where M_c1 falls more than 5 % below the fitted line.
 * ``full`` quality checks the linear-stability M_c1 by simulation (the paper's dots): at
@@ -18,7 +18,7 @@ Method
   (:class:`flagellum.analysis.bifurcations.RunConfig`, regimes from the observables).
 * The collapse of F_c1 at large 1/a: the M_c1 where F_c1 has fallen to half its plateau
   (linear interpolation), and a fit F_c1 = c (M*² − M_c1²) over the points below 80 % of
-  the plateau (the classical F_c + M_c²/(4A) law of eq. (1), with M* the free-swimmer limit).
+  the plateau (the classical F_c + M_c²/(4A) law of Eq. (1), with M* the free-swimmer limit).
 """
 
 from __future__ import annotations
@@ -109,7 +109,7 @@ def analyse(points: list[dict], F_anchored: float) -> dict:
 def _theory_lines(a, theory, x: str, y: str) -> None:
     for rc, style in ((False, "--"), (True, ":")):
         a.plot(theory[rc][x], theory[rc][y], style, color="tab:green",
-               label="rod theory §4" + (", radius correction" if rc else ", constant friction"))
+               label="rod theory (Sec. 4)" + (", radius correction" if rc else ", constant friction"))
 
 
 def plot(ana, theory, crit0, quality, out_dir: Path, sims=()):
@@ -135,8 +135,8 @@ def plot(ana, theory, crit0, quality, out_dir: Path, sims=()):
     if math.isfinite(ana["slope"]):
         ins.plot(xx, ana["intercept"] + ana["slope"] * xx, "k-", lw=0.8, label="fit, 1/a ≤ 1")
     e = ana["eq25"]
-    ins.plot(xx, e["intercept"] + e["slope_per_inverse_radius"] * xx, "r-", lw=1, label="eq. (25)")
-    ins.plot(xx, crit0 + e["slope_per_inverse_radius"] * xx, "r--", lw=0.8, label="eq. (25), our intercept")
+    ins.plot(xx, e["intercept"] + e["slope_per_inverse_radius"] * xx, "r-", lw=1, label="Eq. (16)")
+    ins.plot(xx, crit0 + e["slope_per_inverse_radius"] * xx, "r--", lw=0.8, label="Eq. (16), our intercept")
     ins.set_xlabel("1/a [1/µm]", fontsize=7)
     ins.set_ylabel("$M_{c1}$ [pN·µm]", fontsize=7)
     ins.tick_params(labelsize=6)
@@ -206,11 +206,11 @@ def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
     cmp.add("M_c1 linear in 1/a up to 1/a ≈", PAPER["linear_until_inv_a"].value, ana["linear_until"], "1/µm",
             f"first 1/a where M_c1 is > 5 % below the line fitted for 1/a ≤ {FIT_MAX_INV_A:g}"
             + ("" if math.isfinite(ana["linear_until"]) else " (not reached in this 1/a range)"))
-    cmp.add("slope of M_c1(1/a), eq. (25) vs fit", e["slope_per_inverse_radius"], ana["slope"], "pN·µm²",
-            "paper column: eq. (25) with full-turn RFT coefficients and our anchored F_c1; ours: fit for "
+    cmp.add("slope of M_c1(1/a), Eq. (16) vs fit", e["slope_per_inverse_radius"], ana["slope"], "pN·µm²",
+            "paper column: Eq. (16) with full-turn RFT coefficients and our anchored F_c1; ours: fit for "
             f"1/a ≤ {FIT_MAX_INV_A:g}")
-    cmp.add("intercept of M_c1(1/a), eq. (25) vs fit", e["intercept"], ana["intercept"], "pN·µm",
-            "paper column: −(B∥/C∥) F_c1 of eq. (25); ours: fit for 1/a ≤ 1")
+    cmp.add("intercept of M_c1(1/a), Eq. (16) vs fit", e["intercept"], ana["intercept"], "pN·µm",
+            "paper column: −(B∥/C∥) F_c1 of Eq. (16); ours: fit for 1/a ≤ 1")
     cmp.add("M_c1 where F_c1 collapses (F_c1 at half its plateau)", PAPER["M_c1_quadratic"].value, ana["M_half"],
             "pN·µm", "linear interpolation of the linear-stability points"
             + ("" if math.isfinite(ana["M_half"]) else " (F_c1 does not fall to half in this 1/a range)"))
@@ -225,11 +225,11 @@ def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
                 f"{CONFIRM[quality][2]:g} s each; regimes: "
                 + "; ".join(f"{c['inv_a']:g} {c['side']}: {c.get('regime')}" for c in sims))
     cmp.note("The paper states F_c1 ∝ M_c1² 'near M_c1 ≈ 4'; we read it as the classical law "
-             "F_c ∝ M*² − M_c² of eq. (1) and report where the collapse happens.")
+             "F_c ∝ M*² − M_c² of Eq. (1) and report where the collapse happens.")
     cmp.note("All M_c1, F_c1 here come from linear stability of the aligned state (a Hopf point); "
              "the subcritical character and hysteresis the paper reports at large torque are not "
              "visible in a linear analysis.")
-    cmp.note(f"Rod theory of §4 (green lines): anchored M_c1 = {theory[False]['M'][0]:.3f} (constant "
+    cmp.note(f"Rod theory of Sec. 4 (green lines): anchored M_c1 = {theory[False]['M'][0]:.3f} (constant "
              f"friction) and {theory[True]['M'][0]:.3f} pN·µm (radius correction).")
     for p in points:
         if "error" in p:

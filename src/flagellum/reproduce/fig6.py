@@ -1,12 +1,12 @@
-"""Fig. 6 (the sketch of §4.1): the helical filament replaced by a straight rod of length
+"""Fig. 6 (the sketch of Sec. 4.1): the helical filament replaced by a straight rod of length
 L0 = L sin α with the effective bending rigidity A_eff (App. C), loaded by the thrust
-density f∥ and the torque density m (linear force and torque profiles, eqs. 18 and 20),
+density f∥ and the torque density m (linear force and torque profiles, Eqs. (21) and (23)),
 and by the friction f⊥ and the precession χ.
 
 The paper's figure is a sketch without numbers, so this target computes the quantities it
 shows for the paper's filament — L0, α, R, A_eff, the friction coefficients per length and
-the scales of the hats — and compares the numbers the paper states about them (§2.4, §3,
-§4.2, §5). Panels: (a) the helix and its rod, (b) the force and torque profiles at the
+the scales of the hats — and compares the numbers the paper states about them (Sec. 2.4,
+Sec. 3, Sec. 4.2, Sec. 5). Panels: (a) the helix and its rod, (b) the force and torque profiles at the
 theory's anchored buckling threshold, (c) A_eff/A versus pitch angle.
 """
 
@@ -76,7 +76,7 @@ def quantities(params=None) -> dict:
 
 
 def a_eff_ratio(alpha, A_over_C):
-    """A_eff/A of eq. (C.4) at pitch angle(s) ``alpha`` [rad]."""
+    """A_eff/A of Eq. (17) at pitch angle(s) ``alpha`` [rad]."""
     return effective_bending_rigidity(alpha, A_over_C, 1.0) / A_over_C
 
 
@@ -129,9 +129,9 @@ def plot(q: dict, quality: str, out_dir: Path):
         a.plot(deg, a_eff_ratio(math.radians(deg), q["A"] / q["C"]), "ko")
         a.annotate(name, (deg, a_eff_ratio(math.radians(deg), q["A"] / q["C"])), textcoords="offset points",
                    xytext=(5, -12), fontsize=8)
-    a.set(xlabel="pitch angle α [deg]", ylabel="$A_{eff}/A$ (eq. C.4)", title="(c) effective bending rigidity")
+    a.set(xlabel="pitch angle α [deg]", ylabel="$A_{eff}/A$ (Eq. (17))", title="(c) effective bending rigidity")
     a.legend(fontsize=8)
-    return save_figure(fig, out_dir, "fig6", f"Fig. 6: the helical rod of §4.1 (quality {quality})")
+    return save_figure(fig, out_dir, "fig6", f"Fig. 6: the helical rod of Sec. 4.1 (quality {quality})")
 
 
 def run(out_dir: Path, quality: str, cache=None) -> dict:

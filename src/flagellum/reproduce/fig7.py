@@ -1,12 +1,12 @@
-"""Fig. 7 (``fig: buckling theory``): (a) the manifold of bifurcation points of the helical
+"""Fig. 7 (Sec. 4.2): (a) the manifold of bifurcation points of the helical
 rod in (m̂, f̂∥, f̂⊥), (b) buckling curves f̂∥(m̂) for f̂⊥ = 0, 25, …, 300 with the critical
-points of the filament (red dots), (c) the plane of eq. (plane) and its intersection with
+points of the filament (red dots), (c) the plane of Eq. (31) and its intersection with
 the manifold, (d) the resulting critical force-torque relation, for constant friction
 coefficients and with the torque-dependent radius.
 
 Method
 ------
-* The rod theory of §4 (:func:`flagellum.theory.manifold.compute_manifold`, shooting with
+* The rod theory of Sec. 4 (:func:`flagellum.theory.manifold.compute_manifold`, shooting with
   exact Newton Jacobians, see docs/theory.md).
 * Red dots: M_c1, F_c1 of the filament with load spheres from the linear stability of the
   aligned state (the data of Fig. 5 when run together, otherwise a few load spheres),
@@ -114,7 +114,7 @@ def plot(res, dots, quality, out_dir: Path):
                 for m in mline]
     a.plot(mline, anchored, "w:", lw=1, label=r"plane at $\hat f_\perp$ = 0 (anchored)")
     a.set_ylim(s.f_par.min(), s.f_par.max())
-    a.set(xlabel=r"$\hat m$", ylabel=r"$\hat f_\parallel$", title="(c) plane of eq. (plane) on the manifold")
+    a.set(xlabel=r"$\hat m$", ylabel=r"$\hat f_\parallel$", title="(c) plane of Eq. (31) on the manifold")
     a.legend(fontsize=7, loc="upper right")
     a = fig.add_subplot(2, 2, 4)
     for rc, style, col in ((False, "-", "tab:blue"), (True, "--", "tab:green")):
@@ -193,8 +193,8 @@ def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
              f"{rod.torque_scale:.4f} pN·µm (torque) and A_eff/L0² = {rod.force_scale:.5f} pN (force).")
     cmp.note("Red dots: linear stability of the filament with load spheres (Fig. 5), not the paper's "
              "simulated points.")
-    cmp.note("The paper's printed eq. (plane) has the opposite sign of f∥; the code uses the sign that "
-             "reproduces eq. (25) (docs/theory.md).")
+    cmp.note("The paper's printed Eq. (31) has the opposite sign of f∥; the code uses the sign that "
+             "reproduces Eq. (16) (docs/theory.md).")
     files.append(cmp.write(out_dir))
     return {"M_c1_theory": a0["M"], "M_c1_theory_radius_correction": a1["M"],
             "F_c1_theory": a0["F"], "F_c1_theory_radius_correction": a1["F"],

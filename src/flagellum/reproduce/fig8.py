@@ -1,4 +1,4 @@
-"""Fig. 8 (``fig: compare reorientation rate``, App. C): the reorientation rate λ of the
+"""Fig. 8 (App. C): the reorientation rate λ of the
 anchored filament that pulls (M < 0), for several bending and torsional rigidities A, C and
 for two helix geometries (normal form of peritrichous bacteria, κ0 = 1.3, τ0 = 2.1 /µm;
 monotrichous, κ0 = 2.2, τ0 = 2.5 /µm). The paper: rescaling the torque by A_eff/L0 and the
@@ -9,7 +9,7 @@ Method
 * λ(M) from the linear stability of the aligned state
   (:func:`flagellum.analysis.stability.linear_stability`) at the same rescaled torques
   m̂ = M L0/A_eff for every variant; N = 50 segments, the paper's friction coefficients.
-  The stretching modulus K (a penalty, paper eq. 4) is scaled with A, so that variants that
+  The stretching modulus K (a penalty, paper Eq. (5)) is scaled with A, so that variants that
   differ by a common factor of A, C collapse exactly (λ(2A, 2C, 2K; 2M) = 2λ(A, C, K; M)).
 * Variants at the paper's L = 10 µm (3.93 turns of the normal, 5.30 of the monotrichous
   helix) and monotrichous variants cut to the normal helix' 3.93 turns (L = 7.417 µm).
@@ -17,7 +17,7 @@ Method
   variants (curves interpolated in log–log on a common grid); for contrast with A in place
   of A_eff.
 * Turn scan: λ̂ at m̂ = −1 and −3 against the number of helical turns L/Λ for both
-  geometries (A = C = A0), and the effective-rod prediction of §4
+  geometries (A = C = A0), and the effective-rod prediction of Sec. 4
   (:meth:`flagellum.theory.manifold.HelicalRod.reorientation_rate`).
 * The rescaled buckling threshold m̂_c1 = M_c1 L0/A_eff of each variant
   (:func:`flagellum.analysis.stability.critical_torque`).
@@ -201,7 +201,7 @@ def run(out_dir: Path, quality: str, cache=None) -> dict:
     rod = HelicalRod.from_params(variant_params(variants[0]))
     mh_t = np.linspace(min(M_HAT[quality]), -0.25, 25)
     axs[1].plot(mh_t, [rod.reorientation_rate(m) / rod.master_rate_scale for m in mh_t], "k-", lw=2,
-                alpha=0.5, label="effective rod (§4), normal helix")
+                alpha=0.5, label="effective rod (Sec. 4), normal helix")
     for a in axs[:3]:
         a.axhline(0, color="0.6", lw=0.7)
         a.legend(fontsize=7)
@@ -314,7 +314,7 @@ def run(out_dir: Path, quality: str, cache=None) -> dict:
             f"L/Λ = {min(TURNS[quality]):g} … {max(TURNS[quality]):g}")
     cmp.add("largest normal–monotrichous difference of λ̂ at equal turns (m̂ = −1, −3)", 0.0,
             max(geo_diff) if geo_diff else math.nan, "", "turn scan")
-    cmp.add(f"λ̂(m̂ = −1), mean over the turn scan [effective rod of §4: {np.mean(rod_mean):.4f}]",
+    cmp.add(f"λ̂(m̂ = −1), mean over the turn scan [effective rod of Sec. 4: {np.mean(rod_mean):.4f}]",
             "one value", float(np.mean(x_all)) if len(x_all) else math.nan, "",
             "linear stability; rod: tilt-mode rate on the anchored line")
     cmp.add("spread of λ̂ at equal M L0/A_eff > 0 (pushing, up to buckling)", 0.0, sp_pos, "",
@@ -325,10 +325,10 @@ def run(out_dir: Path, quality: str, cache=None) -> dict:
     if mono is not None:
         cmp.add("sin α of the monotrichous helix", PAPER["sin_alpha_mono"].value,
                 mono["L0"] / 10.0, "", "L0/L")
-    cmp.note("Rate scale A_eff/(L0³A⊥/3) with A⊥ of eq. (A.5) for the whole filament; torque scale "
+    cmp.note("Rate scale A_eff/(L0³A⊥/3) with A⊥ of Eq. (38a) for the whole filament; torque scale "
              f"A_eff/L0 (normal helix, A = C = A0: {normal['torque']:.4f} pN·µm and {normal['rate']:.4f} /s).")
     cmp.note("The paper gives no numbers for this figure; the comparison is the collapse itself.")
-    cmp.note("A_eff of eq. (C.4) agrees with a direct measurement on the discrete rod (end moments) to "
+    cmp.note("A_eff of Eq. (17) agrees with a direct measurement on the discrete rod (end moments) to "
              "≤ 1 % at h = 0.2 µm (flagellum.theory.effective_rigidity, tests/test_fig8.py).")
     cmp.note("The rescaled rate oscillates with the number of helical turns (panel d): at equal turns the "
              "two geometries agree; at L = 10 µm the monotrichous helix (5.30 turns) sits near a minimum.")

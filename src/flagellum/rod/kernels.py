@@ -1,4 +1,4 @@
-"""Numba kernels of the discrete Kirchhoff rod (paper §2.1–2.3).
+"""Numba kernels of the discrete Kirchhoff rod (paper Sec. 2.1–2.3).
 
 State layout (bead by bead, so that the Jacobian is banded)::
 
@@ -214,7 +214,7 @@ def workspace(n):
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
-    """Overdamped RFT dynamics (paper eqs. 5–6 and the hook balance of §2.3).
+    """Overdamped RFT dynamics (paper Eqs. (6)–(7) and the hook balance Eq. (12), Sec. 2.3).
 
     Lab-frame velocities from [γ∥ tt + γ⊥(1 − tt)] w v = f (w = h, end beads h/2, t the
     averaged tangent), spin γR h ω3 = m, hook [γR h t0t0 + ½γ⊥h³(1 − t0t0)] ω = M e_z − τ;

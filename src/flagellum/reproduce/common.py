@@ -32,6 +32,18 @@ from ..errors import ParameterError
 
 QUALITIES = ("quick", "full")
 FIGURES = ("fig3", "fig4", "fig5", "fig6", "fig7", "fig8")
+#: units of the CSV columns of the figures (headers ``name [unit]``; columns not listed are
+#: dimensionless or text; the rod theory's hats m̂, f̂∥, f̂⊥, χ̂ have their own names)
+UNITS = {
+    "torque": "pN·µm", "t": "s", "t_end": "s", "t_from": "s", "wall_seconds": "s",
+    "thrust": "pN", "thrust_mean": "pN", "thrust_min": "pN", "thrust_max": "pN",
+    "thrust_std": "pN", "omega": "rad/s", "chi": "rad/s", "lambda": "1/s", "frequency": "rad/s",
+    "lab_frequency": "rad/s", "r_mean": "µm", "r_std": "µm", "end_to_end": "µm",
+    "hook_tilt_max_deg": "deg", "inv_a": "1/µm", "a": "µm", "M_c1": "pN·µm", "F_c1": "pN",
+    "velocity": "µm/s", "chi_onset": "rad/s", "kappa0": "1/µm", "tau0": "1/µm", "A": "pN·µm²",
+    "C": "pN·µm²", "L": "µm", "L0": "µm", "A_eff": "pN·µm²", "A_perp": "pN·s/µm",
+    "torque_scale": "pN·µm", "rate_scale": "1/s",
+}
 
 
 def check_quality(quality: str) -> str:
@@ -293,5 +305,5 @@ def simulate_point(spec: dict) -> dict:
     return out
 
 
-__all__ = ["QUALITIES", "FIGURES", "Comparison", "check_quality", "job_cost", "pmap",
+__all__ = ["QUALITIES", "FIGURES", "UNITS", "Comparison", "check_quality", "job_cost", "pmap",
            "save_figure", "write_h5", "simulate_point", "pixel_variance"]

@@ -24,6 +24,7 @@ Method
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -31,7 +32,7 @@ import numpy as np
 from .._plot import pyplot
 from ..io import write_csv
 from ..paper import PAPER
-from .common import Comparison, Timer, pmap, save_figure, write_h5
+from .common import UNITS, Comparison, Timer, pmap, save_figure, write_h5
 from .shared import Cache, rod_theory_curve
 
 INV_A = {"quick": (0.0, 0.5, 1.0, 2.0, 4.0, 10.0, 20.0),
@@ -40,6 +41,35 @@ INV_A = {"quick": (0.0, 0.5, 1.0, 2.0, 4.0, 10.0, 20.0),
 FIT_MAX_INV_A = 1.0
 #: simulations that check the linear-stability M_c1: (1/a values, ± fraction, simulated time)
 CONFIRM = {"quick": ((), 0.1, 1.0), "full": ((0.5, 1.0, 2.0, 3.0), 0.1, 1.0)}
+#: columns of ``critical.csv`` and of the theory tables
+CRITICAL_COLUMNS = ("inv_a", "a", "M_c1", "F_c1", "omega", "velocity", "chi_onset", "wall_seconds",
+                    "error")
+THEORY_COLUMNS = ("parameter", "M", "F", "m_hat", "f_par", "f_perp", "chi")
+#: units of ``theory.csv`` (the hats m̂, f̂∥, f̂⊥, χ̂ are dimensionless)
+THEORY_UNITS = {"inv_a": "1/µm", "M": "pN·µm", "F": "pN"}
+
+
+@dataclass(frozen=True)
+class Fig5Data:
+    """What Fig. 5 is drawn from: the critical points, the rod theory and the check runs."""
+
+    points: tuple[dict, ...]  #: :func:`~.shared.load_sphere_threshold` per 1/a of the quality
+    theory: dict              #: {radius correction: :func:`~.shared.rod_theory_curve` table}
+    sims: tuple[dict, ...]    #: :func:`confirmations` (full quality only)
+
+    @property
+    def anchored(self) -> tuple[float, float]:
+        """(M_c1, F_c1) at 1/a = 0; (NaN, 1 pN) if that point failed."""
+        p = next((p for p in self.points if p["inv_a"] == 0 and "error" not in p), None)
+        return (p["M_c1"], p["F_c1"]) if p else (math.nan, 1.0)
+
+
+def theory_inv_a(quality: str) -> np.ndarray:
+    """The dense 1/a grid of the rod-theory lines: 0–5 in steps of 0.25, the quality's 1/a and
+    a few larger values up to its largest."""
+    extra = np.array([6.0, 8.0, 10.0, 15.0, 20.0, 30.0, 50.0])
+    return np.unique(np.concatenate([np.linspace(0, 5, 21), extra[extra <= max(INV_A[quality])],
+                                     np.array(INV_A[quality])]))
 
 
 def _confirm(job: dict) -> dict:
@@ -156,29 +186,20 @@ def plot(ana, theory, crit0, quality, out_dir: Path, sims=()):
     return save_figure(fig, out_dir, "fig5")
 
 
-def compute(quality: str, cache: Cache | None = None) -> list[dict]:
-    """M_c1, F_c1 by linear stability at each 1/a of the quality (shared with Fig. 7)."""
+def compute(quality: str, cache: Cache | None = None) -> Fig5Data:
+    """M_c1, F_c1 by linear stability at each 1/a of the quality (shared with Fig. 7 through
+    ``cache``), the rod theory on :func:`theory_inv_a` and the check runs."""
     cache = Cache() if cache is None else cache
-    return list(cache.load_sphere_thresholds(quality, INV_A[quality]).points)
+    points = list(cache.load_sphere_thresholds(quality, INV_A[quality]).points)
+    theory = {rc: rod_theory_curve(theory_inv_a(quality), rc) for rc in (False, True)}
+    return Fig5Data(tuple(points), theory, tuple(confirmations(points, quality)))
 
 
-def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
-    timer = Timer()
-    out_dir.mkdir(parents=True, exist_ok=True)
-    points = compute(quality, cache)
-    anchored = next((p for p in points if p["inv_a"] == 0 and "error" not in p), None)
-    F0 = anchored["F_c1"] if anchored else 1.0
-    M0 = anchored["M_c1"] if anchored else math.nan
-    ana = analyse(points, F0)
-    extra = np.array([6.0, 8.0, 10.0, 15.0, 20.0, 30.0, 50.0])
-    dense = np.unique(np.concatenate([np.linspace(0, 5, 21), extra[extra <= max(INV_A[quality])],
-                                      np.array(INV_A[quality])]))
-    theory = {rc: rod_theory_curve(dense, rc) for rc in (False, True)}
-    sims = confirmations(points, quality)
-    files = plot(ana, theory, M0, quality, out_dir, sims)
-    cols = ("inv_a", "a", "M_c1", "F_c1", "omega", "velocity", "chi_onset", "wall_seconds", "error")
-    files.append(write_csv(out_dir / "critical.csv", {c: [p.get(c, "") for p in points] for c in cols}))
-    tcols = ("parameter", "M", "F", "m_hat", "f_par", "f_perp", "chi")
+def write(out_dir: Path, data: Fig5Data, quality: str) -> list[Path]:
+    """``critical.csv``, ``theory.csv`` and ``fig5.h5``."""
+    points, theory, cols, tcols = data.points, data.theory, CRITICAL_COLUMNS, THEORY_COLUMNS
+    files = [write_csv(out_dir / "critical.csv", {c: [p.get(c, "") for p in points] for c in cols},
+                       UNITS)]
     trows = {}
     for rc in (False, True):
         for c in tcols:
@@ -187,14 +208,20 @@ def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
             trows[c].extend(list(theory[rc][c]))
         trows["radius_correction"].extend([int(rc)] * len(theory[rc]["parameter"]))
     trows["inv_a"] = trows.pop("parameter")
-    files.append(write_csv(out_dir / "theory.csv", trows))
+    files.append(write_csv(out_dir / "theory.csv", trows, THEORY_UNITS))
     ok = [p for p in points if "error" not in p]
     files.append(write_h5(out_dir / "fig5.h5", {
         "stability": {c: np.array([float(p.get(c, math.nan)) for p in ok]) for c in cols[:-1]},
         "theory_constant_friction": {c: np.asarray(theory[False][c], float) for c in tcols},
         "theory_radius_correction": {c: np.asarray(theory[True][c], float) for c in tcols}},
         {"quality": quality}))
+    return files
 
+
+def compare(data: Fig5Data, ana: dict, quality: str) -> Comparison:
+    """The comparison table of ``comparison.md``."""
+    points, theory, sims = data.points, data.theory, data.sims
+    F0 = data.anchored[1]
     e = ana["eq25"]
     cmp = Comparison("fig5", "buckling with a load sphere: M_c1(1/a) and F_c1(M_c1)", quality)
     cmp.add("F_c1, anchored filament (1/a = 0)", PAPER["F_c1"].value, F0, "pN",
@@ -234,7 +261,15 @@ def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
     for p in points:
         if "error" in p:
             cmp.note(f"1/a = {p['inv_a']:g}: no critical torque found ({p['error']})")
-    files.append(cmp.write(out_dir))
+    return cmp
+
+
+def headline(data: Fig5Data, ana: dict, quality: str, seconds: float, files: list) -> dict:
+    """The numbers ``reproduce`` returns (``eq25``: the critical-torque line of Eq. (16))."""
+    points, sims = data.points, data.sims
+    M0, F0 = data.anchored
+    e = ana["eq25"]
+    lo, hi = ana["F_c1_range_1_2"]
     return {"critical_line": {"intercept": ana["intercept"], "slope_per_inverse_radius": ana["slope"],
                               "fit_max_inv_a": FIT_MAX_INV_A, "method": "linear stability + least squares"},
             "eq25": {"intercept": e["intercept"], "slope_per_inverse_radius": e["slope_per_inverse_radius"],
@@ -244,4 +279,16 @@ def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
             "M_star": ana["M_star"],
             "points": [{k: p.get(k) for k in ("inv_a", "M_c1", "F_c1", "error") if k in p} for p in points],
             "simulations": [{k: c.get(k) for k in ("inv_a", "torque", "side", "regime", "thrust")} for c in sims],
-            "quality": quality, "wall_seconds": timer.seconds, "files": [str(f) for f in files]}
+            "quality": quality, "wall_seconds": seconds, "files": [str(f) for f in files]}
+
+
+def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
+    """Compute, analyse, plot and write Fig. 5 into ``out_dir``; returns :func:`headline`."""
+    timer = Timer()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    data = compute(quality, cache)
+    ana = analyse(data.points, data.anchored[1])
+    files = plot(ana, data.theory, data.anchored[0], quality, out_dir, data.sims)
+    files += write(out_dir, data, quality)
+    files.append(compare(data, ana, quality).write(out_dir))
+    return headline(data, ana, quality, timer.seconds, files)

@@ -212,7 +212,7 @@ def test_coarse_sweep_finds_aligned_buckled_oscillating_in_order(monkeypatch):
     """M = 0.5, 3, 5.5 pN·µm, 0.4 s each after the step (≈ 1 min on 2 cores): regimes
     (ii), (iii), (iv) of Fig. 3 in this order, so M_c2 lies in (3, 5.5). The top probe is
     not 4.5: that lies in the bistable window 4.4–4.6 of docs/sweeps.md and may stay buckled.
-    References: the paper's regimes and M_c1 ≈ 1.1 pN·µm (§3.1, Fig. 3a)."""
+    References: the paper's regimes and M_c1 ≈ 1.1 pN·µm (Sec. 3.1.1, Fig. 3(a))."""
     monkeypatch.undo()  # the real M_c1 as well
     res = bifurcations(torque_range="0.5:5.5:2.5", t_end=0.4, tol=3.0, workers=2)
     scan = sorted((p for p in res["probes"] if p["direction"] == "scan"), key=lambda p: p["torque"])

@@ -1,6 +1,6 @@
 """Equilibrium reference at M = 0 (flagellum.analysis.equilibrium) and Brownian runs against it.
 
-References: closed forms (the spring constant A/(R²L) of §3.1, Love's wire spring, the beam
+References: closed forms (the spring constant A/(R²L) of Sec. 3.1.2, Love's wire spring, the beam
 formulas of docs/validation.md, the Haar measure of SO(3), the exact tangent correlation of a
 straight rod), equipartition, and the Monte Carlo sampler as the exact reference for Brownian
 dynamics. The σ/σ0 values of the paper's filament are REGRESSION values (see below).
@@ -21,7 +21,7 @@ KT = 4.1e-3  # pN·µm: k_BT at room temperature (the default Fluid.kT)
 
 #: regression values: produced by this code for the paper's filament at M = 0 (N = 50,
 #: kT = 4.1e-3 pN·µm); they detect change, not correctness. The paper's own numbers
-#: (§3.1: 0.15 by equipartition, 0.18 simulated) are discussed in docs/validation.md.
+#: (Sec. 3.1.2: 0.15 by equipartition, 0.18 simulated) are discussed in docs/validation.md.
 REGRESSION = {
     "sigma_linear_over_sigma0": 0.2219,  # EquilibriumSampler().linear_sigma(): kT gᵀH⁻¹g
     "sigma_mc_over_sigma0": 0.232,  # EquilibriumSampler().run(200000, seed=11): 0.2320 ± 0.0004
@@ -39,7 +39,7 @@ def test_estimate_reduces_to_the_papers_spring_and_beam_formulas():
     R, L, L0, A = hx.radius, hx.length, hx.axial_length, p.filament.bend_rigidity
     assert est["spring_constant"] == pytest.approx(A / (R**2 * L), rel=1e-12)  # A = C
     assert est["axial"] / est["sigma0"] == pytest.approx(0.153, abs=1e-3)    # paper: ≈ 0.15
-    # closed form: σ_axial = √(kT R²L/A), σ0 = R/√2 (§3.1), so σ_axial/σ0 = √(2 kT L/A)
+    # closed form: σ_axial = √(kT R²L/A), σ0 = R/√2 (Sec. 3.1.2), so σ_axial/σ0 = √(2 kT L/A)
     assert est["axial"] / est["sigma0"] == pytest.approx(math.sqrt(2 * KT * L / A), rel=1e-12)
     assert est["bend2"] == pytest.approx(KT * L0**2 / (est["A_eff"] * math.sqrt(90)), rel=1e-12)
     parts = est["axial"] ** 2 + est["moment"] ** 2 + est["bend2"] ** 2

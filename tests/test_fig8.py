@@ -1,8 +1,8 @@
 """Fig. 8 / App. C: the effective bending rigidity and the master curve of the reorientation
-rate λ of the anchored, pulling filament (M < 0); docs/theory.md §6.
+rate λ of the anchored, pulling filament (M < 0); section 6 of docs/theory.md.
 
 References: an exact scaling law of the equations of motion, the closed forms of App. A
-(A⊥, eq. (A.5)) and App. C (eq. (C.4)), end moments on the discrete rod, and the paper's
+(A⊥, Eq. (38a)) and App. C (Eq. (17)), end moments on the discrete rod, and the paper's
 master-curve statement (App. C, Fig. 8)."""
 
 import pytest
@@ -18,8 +18,8 @@ from flagellum.theory.manifold import HelicalRod
 MONO = dict(kappa0=2.2, tau0=2.5)  # monotrichous helix, App. C (Fujii 2008) [1/µm]
 
 #: regression values: produced by this code (``HelicalRod.reorientation_rate``, the tilt
-#: mode of the §4 rod on the anchored line at m̂ = −1, paper's filament); they detect
-#: change, not correctness (docs/theory.md §6)
+#: mode of the Sec. 4 rod on the anchored line at m̂ = −1, paper's filament); they detect
+#: change, not correctness (section 6 of docs/theory.md)
 REGRESSION = {"rod_lambda_hat_at_m_hat_-1": 0.0457}
 
 
@@ -59,23 +59,23 @@ def test_continuum_compliance_is_eq_c4_on_average():
 @pytest.mark.parametrize("kw", [{}, MONO, dict(MONO, bend_rigidity=7.0)])
 def test_A_eff_against_the_discrete_rod(kw):
     # end moments on the discrete stress-free helix (h = 0.2 µm): measured A_eff within
-    # 1.5 % of the closed form eq. (C.4). Error estimate: discretisation O(h²); this code
-    # measured −0.3 %, −0.6 %, −1.0 % at h = 0.2 and −0.1 % at h = 0.1 (docs/theory.md §6)
+    # 1.5 % of the closed form Eq. (17). Error estimate: discretisation O(h²); this code
+    # measured −0.3 %, −0.6 %, −1.0 % at h = 0.2 and −0.1 % at h = 0.1 (section 6 of docs/theory.md)
     p = Params().replace(**kw)
     assert er.measured_bending_rigidity(p) == pytest.approx(er.formula(p), rel=0.015)
 
 
 def test_rate_scale_uses_the_whole_filament_A_perp():
-    # App. C: λ is rescaled by A_eff/(L0³A⊥/3), A⊥ of eq. (A.5) for the filament length L
+    # App. C: λ is rescaled by A_eff/(L0³A⊥/3), A⊥ of Eq. (38a) for the filament length L
     p = Params()
     rod = HelicalRod.from_params(p)
     h = Helix.from_filament(p.filament)
-    A_perp = rft.full_turn_coefficients(h, *p.gammas[:2])["A_perp"]   # eq. (A.5), length L
+    A_perp = rft.full_turn_coefficients(h, *p.gammas[:2])["A_perp"]   # Eq. (38a), length L
     assert rod.master_rate_scale == pytest.approx(rod.A_eff / (rod.L0**3 * A_perp / 3), rel=1e-12)
 
 
 def test_effective_rod_rate_hardly_depends_on_the_geometry():
-    # the rod of §4 sees the geometry only through f̂∥/m̂ = −c∥L0/b∥ (closed form, App. A:
+    # the rod of Sec. 4 sees the geometry only through f̂∥/m̂ = −c∥L0/b∥ (closed form, App. A:
     # 8.7 vs 9.9), so its rescaled rate changes by < 2 %; the 0.0457 is a REGRESSION value
     lam = [HelicalRod.from_params(p).reorientation_rate(-1.0) / HelicalRod.from_params(p).master_rate_scale
            for p in (Params(), Params().replace(**MONO))]
@@ -87,7 +87,7 @@ def test_master_curve_needs_equal_turns():
     # literature: App. C, Fig. 8: with λ̂ and m̂ "all different curves ... fall onto a common
     # master curve" (5 %: the agreement a shared curve in a plot implies). This code finds it
     # only at equal turns: at L = 10 µm (3.93 vs 5.30 turns) the rescaled rates differ by a
-    # factor of 2 (docs/theory.md §6): the end phase, not A_eff or A⊥, breaks the collapse
+    # factor of 2 (section 6 of docs/theory.md): the end phase, not A_eff or A⊥, breaks the collapse
     normal = lam_hat(Params(), -1.0)
     mono_10 = lam_hat(Params().replace(**MONO), -1.0)
     mono_eq = lam_hat(Params().replace(**MONO, length=L_MONO_MATCHED,

@@ -50,7 +50,7 @@ def test_lighthill_close_to_papers_rounded_values():
     cos_a = 1.3 / math.hypot(1.3, 2.1)
     log = math.log(2 * 0.09 * 2 * math.pi * R / cos_a / 0.01)
     assert gp == pytest.approx(2 * math.pi * 1e-3 / log, rel=1e-12)
-    # literature: §2.4 quotes the Lighthill values rounded, γ∥ = 1.6e-3, γ⊥ = 2.8e-3 pN·s/µm²,
+    # literature: Sec. 2.4 quotes the Lighthill values rounded, γ∥ = 1.6e-3, γ⊥ = 2.8e-3 pN·s/µm²,
     # γR = 1.26e-6 pN·s (its filament radius "about 20 nm" is not exact: hence 5 %)
     assert gp == pytest.approx(1.6e-3, rel=0.05)
     assert gn == pytest.approx(2.8e-3, rel=0.05)

@@ -1,4 +1,4 @@
-"""Regime detector (paper §3.1, Figs. 3–4) on constructed time series: the four regimes
+"""Regime detector (paper Sec. 3.1, Figs. 3–4) on constructed time series: the four regimes
 and the cases at the edges of each criterion (milliseconds, no simulation)."""
 
 import math
@@ -127,7 +127,7 @@ def test_negative_thrust_dips_of_regime_iv_are_not_reorienting():
 
 
 def test_thermal_like_aligned_fluctuations_stay_aligned():
-    """σ/σ0 ≈ 0.18 from compressional fluctuations (paper §3.1.2) is not buckling."""
+    """σ/σ0 ≈ 0.18 from compressional fluctuations (paper Sec. 3.1.2) is not buckling."""
     rng = np.random.default_rng(1)
     r = L0 + 0.18 * SIGMA0 * rng.standard_normal(len(T))
     m = measure(T, np.ones(len(T)), bent(T, r, np.zeros((len(T), 2))), R)

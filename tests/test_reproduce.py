@@ -69,8 +69,8 @@ def test_quick_target(fig, tmp_path, shared):
     for key in HEADLINE[fig]:
         assert key in res
     check_outputs(tmp_path, fig)
-    # literature bounds around the paper's stated numbers: §3.1 (Fig. 3 caption) M_c1 ≈ 1.1,
-    # M_c2 ≈ 4.2 pN·µm, the RFT line of App. A (F/M 0.8–1.02 /µm, docs/validation.md); §3.1:
+    # literature bounds around the paper's stated numbers: Sec. 3.1.1 (Fig. 3 caption) M_c1 ≈ 1.1,
+    # M_c2 ≈ 4.2 pN·µm, the RFT line of App. A (F/M 0.8–1.02 /µm, docs/validation.md); Sec. 3.1.2:
     # σ/σ0 = √(2 kT L/A) = 0.153 by equipartition (closed form; paper "≈ 0.15")
     if fig == "fig3":
         assert 0.9 < res["M_c1"] < 1.3
@@ -95,6 +95,10 @@ def test_fig5_quick_cli_json(tmp_path, capsys):
     assert 0.9 < line["intercept"] < 1.3 and 0.7 < line["slope_per_inverse_radius"] < 1.2
     assert 0.9 < res["F_c1"] < 1.2
     check_outputs(tmp_path, "fig5")
+    # CSV headers carry the units; the rod theory's χ̂ is dimensionless
+    header = lambda name: (tmp_path / "fig5" / name).read_text(encoding="utf-8").splitlines()[0]  # noqa: E731
+    assert header("critical.csv").startswith("inv_a [1/µm],a [µm],M_c1 [pN·µm],F_c1 [pN],omega [rad/s]")
+    assert header("theory.csv") == "radius_correction,M [pN·µm],F [pN],m_hat,f_par,f_perp,chi,inv_a [1/µm]"
 
 
 @pytest.mark.slow
@@ -139,6 +143,10 @@ def test_write_csv_and_blank_image(tmp_path):
 
     p = write_csv(tmp_path / "x.csv", {"a": [1.0, math.nan, math.inf], "b": ["x,y", None, 3]})
     assert p.read_text().splitlines() == ["a,b", "1,x;y", "nan,", "inf,3"]
+    # units go into the header as "name [unit]"; names without a unit stay bare
+    p = write_csv(tmp_path / "u.csv", {"torque": [1.0], "regime": ["aligned"], "r": [2.0]},
+                  {"torque": "pN·µm", "r": "", "other": "s"})
+    assert p.read_text(encoding="utf-8").splitlines() == ["torque [pN·µm],regime,r", "1,aligned,2"]
     fig = plt.figure()
     fig.savefig(tmp_path / "blank.png")
     plt.close(fig)

@@ -11,8 +11,8 @@ from flagellum.hydro import rft
 
 from closed_forms import app_a_thrust_per_torque
 
-GP, GN, GR = 1.6e-3, 2.8e-3, 1.26e-6  # γ∥, γ⊥ [pN·s/µm²], γR [pN·s]: §2.4 of the paper
-K = math.hypot(1.3, 2.1)  # κ0 = 1.3, τ0 = 2.1 /µm (§2.4)
+GP, GN, GR = 1.6e-3, 2.8e-3, 1.26e-6  # γ∥, γ⊥ [pN·s/µm²], γR [pN·s]: Sec. 2.4 of the paper
+K = math.hypot(1.3, 2.1)  # κ0 = 1.3, τ0 = 2.1 /µm (Sec. 2.4)
 
 #: regression values: produced by this code (``rft.rft_summary(Params())``: the rigid
 #: continuum helix, L = 10 µm, pinned at its first point, with spin friction γR); they
@@ -83,7 +83,7 @@ def test_handedness_flips_thrust():
 def test_anchored_unpinned_and_pinned_lines():
     s = rft.rft_summary(Params())
     assert s["thrust_per_torque"] == pytest.approx(1.02, abs=0.01)
-    # closed form, App. A eqs. (frict coeffi), full turns: F/M = −C∥/B∥
+    # closed form, App. A Eqs. (38)–(39), full turns: F/M = −C∥/B∥
     assert s["thrust_per_torque"] == pytest.approx(app_a_thrust_per_torque(1.3, 2.1, GP, GN),
                                                    rel=1e-12)
     p = s["pinned"]
@@ -113,7 +113,7 @@ def test_pinned_rotation_is_steady_and_thrust_matches_force_sum():
 
 def test_load_sphere_limits_and_critical_line():
     # closed-form limits: a huge sphere is the anchored helix (F/M = −C∥/B∥, ω/M = 1/B∥), a
-    # tiny one the force-free helix (A∥v + C∥ω = 0); eq. (25) gives F = F_c1 on its line
+    # tiny one the force-free helix (A∥v + C∥ω = 0); Eq. (16) gives F = F_c1 on its line
     c = rft.full_turn_coefficients(Helix(1.3, 2.1, 10.0), GP, GN)
     big = rft.load_sphere(c, 1.0, 1e12, 1e-3)
     assert big["thrust"] == pytest.approx(rft.anchored_helix(c)["thrust_per_torque"], rel=1e-6)

@@ -13,7 +13,7 @@ from flagellum.errors import ParameterError
 from flagellum.helix import Helix, discrete_helix, rot_z
 from flagellum.hydro import rft, sbt
 
-ETA, R_FIL = 1e-3, 0.01  # the paper's water and filament radius (§2.4)
+ETA, R_FIL = 1e-3, 0.01  # the paper's water and filament radius (Sec. 2.4)
 
 
 def _line(z):
@@ -128,7 +128,7 @@ def test_spin_torque_of_a_rotating_rod():
     R = model.resistance_matrix(_line(np.linspace(0, L, n + 1)))
     assert R[5, 5] == pytest.approx(4 * math.pi * ETA * R_FIL**2 * L, rel=1e-12)
     assert model.resistance_matrix(_line(np.linspace(0, L, n + 1)), spin=False)[5, 5] == 0.0
-    # the paper's γR (§2.4, PAPER_FRICTION) is this 4πηr², rounded
+    # the paper's γR (Sec. 2.4, PAPER_FRICTION) is this 4πηr², rounded
     assert model.gamma_rot == pytest.approx(Params().gammas[2], rel=0.01)
 
 
@@ -180,7 +180,7 @@ def test_simulator_helix_pinned_and_anchored():
 
 def test_block_diagonal_mobility_reproduces_rft():
     # the rigid-body assembly Jᵀ M⁻¹ J with the local bead mobility of hydro.local equals
-    # rft.resistance_matrix (eq. A.1–A.3) to rounding
+    # rft.resistance_matrix (Eqs. (32)–(35)) to rounding
     dh = discrete_helix(Filament())
     p, t, w = rft.bead_nodes(dh)
     gp, gn, gr = Params().gammas

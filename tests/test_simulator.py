@@ -204,7 +204,7 @@ def _free_swimmer(a: float, t_end: float = 0.1):
 
     pos = positions(sim.y)
     vel = sim.model.rhs(sim.t, sim.y)[3:].reshape(-1, 4)[:, :3]
-    w = np.full(len(pos), 0.2)  # bead lengths: h, h/2 at the ends (paper §2.2)
+    w = np.full(len(pos), 0.2)  # bead lengths: h, h/2 at the ends (paper Sec. 2.2)
     w[0] = w[-1] = 0.1
     e3 = np.diff(pos, axis=0)
     e3 /= np.linalg.norm(e3, axis=1)[:, None]

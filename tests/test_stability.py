@@ -2,7 +2,7 @@
 
 Independent references: rigid-helix RFT of the discrete helix (small-torque limit, anchored
 and with a load sphere), the full unreduced Jacobian of the rod model, mirror symmetry,
-the paper's qualitative findings (§3.1–3.2), eq. (25) for the load sphere, and direct
+the paper's qualitative findings (Sec. 3.1–3.2), Eq. (16) for the load sphere, and direct
 simulation of a perturbed state (slow).
 """
 
@@ -126,7 +126,7 @@ def test_reduced_spectrum_is_the_full_one_minus_trivial_modes():
 
 
 def test_stability_follows_the_paper():
-    """§3.1: aligned state unstable for M < 0, stable at M = 0.5, buckled (Hopf) at 1.5."""
+    """Sec. 3.1: aligned state unstable for M < 0, stable at M = 0.5, buckled (Hopf) at 1.5."""
     neg, mid, high = _stability(-0.5), _stability(0.5), _stability(1.5)
     assert neg.lambda_ > 0 and mid.lambda_ < 0 and high.lambda_ > 0
     assert high.frequency > 0  # a complex pair crosses: Hopf bifurcation
@@ -206,13 +206,13 @@ def test_simulation_gives_the_eigenvalue(torque, kw):
 @pytest.mark.slow
 @pytest.mark.ci
 def test_load_sphere_follows_eq_25():
-    """Paper eq. (25): M_c1 grows linearly in 1/a with slope (C∥ − A∥B∥/C∥) F_c1/(6πη)."""
+    """Paper Eq. (16): M_c1 grows linearly in 1/a with slope (C∥ − A∥B∥/C∥) F_c1/(6πη)."""
     params = Params()
     fixed = critical_torque(params)
     big = critical_torque(params, Boundary("sphere", 5.0))
     coeffs = rft.full_turn_coefficients(Helix.from_filament(params.filament), *params.gammas[:2])
     slope = rft.critical_torque_line(coeffs, fixed.critical_force, params.fluid.viscosity)
-    # 10 %: eq. (25) takes App. A's full-turn coefficients of the rigid helix on its axis; the
+    # 10 %: Eq. (16) takes App. A's full-turn coefficients of the rigid helix on its axis; the
     # filament (3.93 turns, pinned at bead 0, deformed) has an F/M 7 % below App. A's at M_c1
     # (0.951 vs 1.021 /µm, tests/test_theory_manifold.py)
     assert (big.critical_torque - fixed.critical_torque) / 0.2 == pytest.approx(

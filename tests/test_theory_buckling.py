@@ -1,4 +1,4 @@
-"""Buckling theory of the helical rod (paper §4): classical limits, two methods, trivial mode.
+"""Buckling theory of the helical rod (paper Sec. 4): classical limits, two methods, trivial mode.
 
 Reference values are literature results (Euler, Greenhill, Ziegler, Wolgemuth et al.) or
 closed forms derived independently of the solver; never numbers copied from its output.

@@ -1,9 +1,10 @@
-"""The helical rod of §4.2: friction relations, radius correction, critical manifold, M_c1.
+"""The helical rod of Sec. 4.2: friction relations, radius correction, critical manifold, M_c1.
 
-References: closed forms of App. A (full-turn friction coefficients, eq. (plane)) and App. C
+References: closed forms of App. A (full-turn friction coefficients, Eq. (31)) and App. C
 (A_eff); the rigid-helix RFT of ``flagellum.hydro.rft`` (a separate code path, itself checked
 against quadrature in tests/test_rft.py); the global scans of ``theory.buckling.find_critical``
-against the continuation of ``theory.manifold``; the paper's stated numbers (§3.1, §3.2, §4.2).
+against the continuation of ``theory.manifold``; the paper's stated numbers
+(Sec. 3.1, Sec. 3.2, Sec. 4.2).
 """
 
 import math
@@ -24,7 +25,7 @@ ROD = HelicalRod.from_params()
 GP, GN, _ = Params().gammas
 
 #: regression values: produced by this code (paper's filament, default parameters) with
-#: ``analysis.stability`` at N = 50 and the rod theory of §4; they detect change, not
+#: ``analysis.stability`` at N = 50 and the rod theory of Sec. 4; they detect change, not
 #: correctness. The paper states only M_c1 ≈ 1.1 pN·µm and F_c1 ≈ 1 pN.
 REGRESSION = {
     "M_c1_filament": 1.066,  # critical_torque(Params()) [pN·µm] (docs/stability.md)
@@ -34,7 +35,7 @@ REGRESSION = {
 
 
 def test_rod_of_the_paper_filament():
-    # closed forms: tan α = τ/κ, L0 = L sin α (App. A, eq. (helix): z = s sin α)
+    # closed forms: tan α = τ/κ, L0 = L sin α (App. A, Eq. (37): z = s sin α)
     alpha = math.atan2(2.1, 1.3)
     assert ROD.L0 == pytest.approx(10 * math.sin(alpha), rel=1e-12)
     # App. C with A = C: 1/A_eff = (1 + sin²α + cos²α)/(2A sin α) = 1/(A sin α)
@@ -44,7 +45,7 @@ def test_rod_of_the_paper_filament():
 
 @pytest.mark.parametrize("inv_a", [0.0, 0.5, 2.0])
 def test_sphere_loads_against_rft_and_plane(inv_a):
-    # independent path: rigid-helix RFT (App. A) with the sphere's drag F = 6πηa v (§3.2)
+    # independent path: rigid-helix RFT (App. A) with the sphere's drag F = 6πηa v (Sec. 3.2)
     m = 3.0
     f, fp = ROD.sphere_loads(m, inv_a)
     M = m * ROD.torque_scale
@@ -56,12 +57,12 @@ def test_sphere_loads_against_rft_and_plane(inv_a):
         thrust, v = res["thrust"], res["velocity"]
     assert f * ROD.force_scale == pytest.approx(thrust, rel=1e-12)
     assert fp == pytest.approx(ROD.a_perp * v * ROD.L0**3 / ROD.A_eff, rel=1e-12, abs=1e-12)
-    # every load sphere lies on the plane of eq. (plane); the anchored helix at f⊥ = 0
+    # every load sphere lies on the plane of Eq. (31); the anchored helix at f⊥ = 0
     assert ROD.plane(m, f) == pytest.approx(fp, rel=1e-12, abs=1e-12)
 
 
 def test_radius_correction_matches_a_thinner_helix():
-    # §4.2: twist M/(2A) changes 1/R to 1/R + M/(2A cos α) at fixed α; App. A's coefficients
+    # Sec. 4.2: twist M/(2A) changes 1/R to 1/R + M/(2A cos α) at fixed α; App. A's coefficients
     # of that thinner helix by hydro.rft (independent of the rod's own correction)
     M = 2.0
     a, b, c = ROD.coefficients(M, radius_correction=True)
@@ -76,7 +77,7 @@ def test_radius_correction_matches_a_thinner_helix():
 
 
 def test_anchored_critical_torque_near_the_paper():
-    # literature: §3.1 (Fig. 3 caption) M_c1 ≈ 1.1 pN µm, §5 F_c1 ≈ 1 pN (simulation); §4.2
+    # literature: Sec. 3.1.1 (Fig. 3 caption) M_c1 ≈ 1.1 pN µm, Sec. 5 F_c1 ≈ 1 pN (simulation); Sec. 4.2
     # (Fig. 7d): the rod theory agrees "remarkably" at low m. Loose bounds: the theory is an
     # effective rod model.
     curve = load_sphere_curve(ROD, [0.0])
@@ -84,13 +85,13 @@ def test_anchored_critical_torque_near_the_paper():
     assert 0.85 < tab["M"][0] < 1.25 and 0.85 < tab["F"][0] < 1.15
     cp = curve.points[0]
     assert cp.f_perp == 0.0 and not is_tilt_mode(cp.problem)
-    # closed form: on the ray f⊥ = 0, f∥/m = −c∥L0/b∥ (anchored, eq. (25) at 1/a = 0)
+    # closed form: on the ray f⊥ = 0, f∥/m = −c∥L0/b∥ (anchored, Eq. (16) at 1/a = 0)
     assert cp.f_par / cp.m_hat == pytest.approx(-ROD.c_par * ROD.L0 / ROD.b_par, rel=1e-12)
 
 
 def test_load_sphere_thrust_nearly_constant():
-    # literature: §3.2, Fig. 5(b): F_c1 stays nearly constant for cell-body radii a = 0.5–2 µm
-    # while M_c1 grows linearly with 1/a (eq. (25)); the 10 % band is our reading of "nearly"
+    # literature: Sec. 3.2, Fig. 5(b): F_c1 stays nearly constant for cell-body radii a = 0.5–2 µm
+    # while M_c1 grows linearly with 1/a (Eq. (16)); the 10 % band is our reading of "nearly"
     tab = load_sphere_curve(ROD, [0.5, 1.0, 2.0]).table()
     assert np.all(np.diff(tab["M"]) > 0)
     assert np.ptp(tab["F"]) < 0.1 * np.mean(tab["F"])
@@ -118,8 +119,8 @@ def test_level_curve_points_are_on_the_level():
 
 
 def test_plane_intersection_lies_on_plane_and_sphere_curve():
-    # eq. (plane) and eq. (25) describe the same constraint: a point on the plane is the
-    # critical point of the load sphere with the 1/a that produces its f⊥ (v from f⊥, §4.2)
+    # Eq. (31) and Eq. (16) describe the same constraint: a point on the plane is the
+    # critical point of the load sphere with the 1/a that produces its f⊥ (v from f⊥, Sec. 4.2)
     pl = plane_intersection(ROD, [4.0, 6.0])
     for p in pl.points:
         assert p.f_perp == pytest.approx(ROD.plane(p.m_hat, p.f_par), rel=1e-10)
@@ -142,7 +143,7 @@ def test_compute_manifold_small_grid(tmp_path):
                                        "plane_intersection.csv", "summary.json", "manifold.png"}
     assert (tmp_path / "manifold.png").stat().st_size > 10000
     summ = res.summary()
-    # §4.2 (Fig. 7d): the radius correction (thinner helix, larger F/M) lowers the anchored M_c1
+    # Sec. 4.2 (Fig. 7d): the radius correction (thinner helix, larger F/M) lowers the anchored M_c1
     assert summ["with_radius_correction"]["anchored"]["M"] < summ["without_radius_correction"]["anchored"]["M"]
 
 

@@ -9,7 +9,7 @@ from flagellum.theory.rigid_helix import euler_rates, rotate, rotational_resista
 
 
 def test_symmetric_top_precesses_at_M_over_B1():
-    # symmetric top (Landau & Lifshitz §33): the axis precesses about L at L/I₁
+    # symmetric top (Landau & Lifshitz, Sec. 33): the axis precesses about L at L/I₁
     B = np.diag([4.0, 4.0, 0.5])
     run = rotate(B, [0.0, 0.0, 2.0], 30.0, R0=rot_x(0.7), n_out=3001)
     assert run.precession_rate() == pytest.approx(2.0 / 4.0, rel=1e-8)

@@ -1,12 +1,12 @@
 """Helix geometry: the continuum helix of the paper and the discrete helix of the rod model.
 
-Continuum (paper §2.1, eq. A.4): curvature κ, torsion τ (sign = handedness χ), ::
+Continuum (paper Sec. 2.1, Eq. (37)): curvature κ, torsion τ (sign = handedness χ), ::
 
     R = κ/(κ² + τ²),   p = 2π|τ|/(κ² + τ²),   tan α = p/(2πR) = |τ|/κ,
     r(s) = (R cos ks, χ R sin ks, s sin α),    k = cos α / R = √(κ² + τ²),
     L0 = L sin α (axial length),   Λ = 2πR/cos α (contour length of one turn).
 
-Discrete (paper §2.2): frame j+1 follows from frame j by a twist τh about e3, then a bend
+Discrete (paper Sec. 2.2): frame j+1 follows from frame j by a twist τh about e3, then a bend
 κh about the new e2, i.e. D_{j+1} = D_j R_z(τh) R_y(κh) (columns of D are e1, e2, e3); this
 helix has exactly the strains (0, κ0, τ0) of the discrete energy and is stress free.
 """
@@ -62,7 +62,7 @@ def axis_angle(rot: np.ndarray) -> tuple[np.ndarray, float]:
 
 @dataclass(frozen=True)
 class Helix:
-    """Continuum helix of contour length ``length`` (paper §2.1, App. A)."""
+    """Continuum helix of contour length ``length`` (paper Sec. 2.1, App. A)."""
 
     curvature: float
     torsion: float  #: signed: > 0 right-handed
@@ -109,7 +109,7 @@ class Helix:
         return self.length / self.turn_length
 
     def positions(self, s) -> np.ndarray:
-        """r(s) of eq. (A.4), axis along +z through the origin."""
+        """r(s) of Eq. (37), axis along +z through the origin."""
         s = np.asarray(s, float)
         k, R, a = self.wavenumber, self.radius, self.pitch_angle
         return np.stack([R * np.cos(k * s), self.chirality * R * np.sin(k * s),
@@ -134,7 +134,7 @@ class DiscreteHelix:
     """The stress-free discrete helix of the rod model.
 
     ``positions``: (N+1, 3) beads; ``frames``: (N+1, 3, 3) with columns (e1, e2, e3);
-    ``frames[0]`` is the hook frame (paper §2.3), ``frames[j]`` belongs to bond j
+    ``frames[0]`` is the hook frame (paper Sec. 2.3), ``frames[j]`` belongs to bond j
     (from bead j−1 to bead j) for j = 1..N.
     """
 

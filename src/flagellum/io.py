@@ -40,14 +40,16 @@ def atomic_write_text(path: str | Path, text: str) -> None:
         Path(tmp).write_text(text)
 
 
-def csv_text(columns: dict) -> str:
+def csv_text(columns: dict, units: dict | None = None) -> str:
     """``{name: values}`` as CSV text with a header line. Columns may differ in length (short
     ones are padded with empty cells); floats are written with 10 significant digits (``nan``,
-    ``inf`` as such), ``None`` as an empty cell, other values as text with ``,`` → ``;``."""
+    ``inf`` as such), ``None`` as an empty cell, other values as text with ``,`` → ``;``.
+    ``units`` ({name: unit}) writes the header of those columns as ``name [unit]``."""
     names = list(columns)
     cols = [list(np.atleast_1d(np.asarray(columns[k], dtype=object))) for k in names]
     n = max((len(c) for c in cols), default=0)
-    lines = [",".join(names)]
+    units = units or {}
+    lines = [",".join(f"{k} [{units[k]}]" if units.get(k) else k for k in names)]
     for i in range(n):
         row = []
         for c in cols:
@@ -62,9 +64,10 @@ def csv_text(columns: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_csv(path: str | Path, columns: dict) -> Path:
-    """Write :func:`csv_text` of ``columns`` to ``path`` atomically; returns the path."""
-    atomic_write_text(path, csv_text(columns))
+def write_csv(path: str | Path, columns: dict, units: dict | None = None) -> Path:
+    """Write :func:`csv_text` of ``columns`` (headers with ``units``) to ``path`` atomically;
+    returns the path."""
+    atomic_write_text(path, csv_text(columns, units))
     return Path(path)
 
 

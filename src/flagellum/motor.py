@@ -1,4 +1,4 @@
-"""Motor torque and boundary conditions at the motor end (paper §2.3, §3.3).
+"""Motor torque and boundary conditions at the motor end (paper Sec. 2.3, Sec. 3.2).
 
 * :class:`Motor` — torque M(t) e_z on the hook frame: constant, smoothly ramped on, or a
   piecewise-linear schedule (reversals, steps).
@@ -21,7 +21,7 @@ from .params import check_choice, check_range, check_real, positive
 
 @dataclass(frozen=True)
 class Motor:
-    """Motor torque M(t) [pN·µm] along +e_z (M > 0: the filament pushes, paper §3.1).
+    """Motor torque M(t) [pN·µm] along +e_z (M > 0: the filament pushes, paper Sec. 3.1.1).
 
     ``ramp_time`` > 0 ramps the torque on as M (1 − cos(π t/T))/2 for t < T, which avoids
     the violent start of an abrupt switch-on. ``schedule`` = ((t0, M0), (t1, M1), …)

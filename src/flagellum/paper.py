@@ -1,11 +1,12 @@
 """The numbers that Vogel & Stark (2012) state, and the two reference helices.
 
 Every entry of :data:`PAPER` is a :class:`Stated` value with its unit and where the paper
-gives it, by the section, figure and equation numbers of the printed article (its figures
-are numbered with the sketches: Fig. 5 is the thrust–torque figure that
-``flagellum reproduce fig3`` redraws, Fig. 6 ↔ fig4, Fig. 7 ↔ fig5, Fig. 8 ↔ fig6,
-Fig. 9 ↔ fig7, Fig. 11 ↔ fig8). The comparison tables of ``flagellum reproduce`` and the
-bifurcation search quote them; the model's defaults live in :mod:`flagellum.params`.
+gives it, by the section, figure and equation numbers of the paper's source (equations
+numbered continuously, (1)–(47), through the appendices; figures numbered with the
+sketches: Fig. 5 is the thrust–torque figure that ``flagellum reproduce fig3`` redraws,
+Fig. 6 ↔ fig4, Fig. 7 ↔ fig5, Fig. 8 ↔ fig6, Fig. 9 ↔ fig7, Fig. 11 ↔ fig8). The comparison
+tables of ``flagellum reproduce`` and the bifurcation search quote them, and the defaults
+of :mod:`flagellum.params` (helix, rigidities, friction) are taken from here.
 
 Reference helices (spontaneous curvature κ0 and torsion τ0 of the filament, 1/µm):
 

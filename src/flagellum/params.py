@@ -2,11 +2,11 @@
 
 Units everywhere: µm, pN, s (so energies in pN·µm, viscosity in pN·s/µm²).
 
-Three groups, as in Vogel & Stark (2012) §2.4:
+Three groups, as in Vogel & Stark (2012) Sec. 2.4:
 
-* :class:`Filament` — geometry and elasticity of the helical filament (eqs. 3–4),
+* :class:`Filament` — geometry and elasticity of the helical filament (Eqs. (3)–(5)),
 * :class:`Fluid` — viscosity, filament radius and thermal energy,
-* :class:`Friction` — local resistive-force coefficients γ∥, γ⊥, γR (eq. 5); either the
+* :class:`Friction` — local resistive-force coefficients γ∥, γ⊥, γR (Eqs. (6)–(7)); either the
   paper's rounded values, Lighthill's formulas (App. A), or user-given values.
 
 :class:`Params` bundles them and reads/writes TOML with the same names as the CLI flags.
@@ -25,9 +25,10 @@ from pathlib import Path
 from typing import Any
 
 from .errors import ParameterError
+from .paper import NORMAL_HELIX, PAPER
 
-#: The paper's rounded friction coefficients (§2.4): γ∥, γ⊥ in pN·s/µm², γR in pN·s.
-PAPER_FRICTION = (1.6e-3, 2.8e-3, 1.26e-6)
+#: The paper's rounded friction coefficients (Sec. 2.4): γ∥, γ⊥ in pN·s/µm², γR in pN·s.
+PAPER_FRICTION = tuple(PAPER[k].value for k in ("gamma_par", "gamma_perp", "gamma_rot"))
 
 
 def check_real(name: str, value: Any, allowed: str = "a finite number") -> float:
@@ -70,7 +71,7 @@ def _set(obj, name, value):
 class Filament:
     """Helical filament: discrete Kirchhoff rod of ``n_segments`` bonds of length h.
 
-    Energy density (paper eqs. 3–4)::
+    Energy density (paper Eqs. (4)–(5))::
 
         f = A/2 Ω1² + A/2 (Ω2 − κ0)² + C/2 (Ω3 − τ0)² + K/2 (|∂s r| − 1)²
 
@@ -78,11 +79,11 @@ class Filament:
     (right-handed: τ > 0).
     """
 
-    kappa0: float = 1.3  #: spontaneous curvature κ0 [1/µm]
-    tau0: float = 2.1  #: spontaneous torsion |τ0| [1/µm]
+    kappa0: float = NORMAL_HELIX[0]  #: spontaneous curvature κ0 [1/µm] (the paper's normal helix)
+    tau0: float = NORMAL_HELIX[1]  #: spontaneous torsion |τ0| [1/µm]
     handedness: str = "right"
-    bend_rigidity: float = 3.5  #: A [pN·µm²]
-    twist_rigidity: float = 3.5  #: C [pN·µm²]
+    bend_rigidity: float = PAPER["bend_rigidity"].value  #: A [pN·µm²]
+    twist_rigidity: float = PAPER["bend_rigidity"].value  #: C [pN·µm²] (the paper's C = A)
     stretch_modulus: float = 1.0e3  #: K [pN]; strain = tension/K
     length: float = 10.0  #: contour length L [µm]
     segment_length: float = 0.2  #: bond length h [µm]
@@ -144,7 +145,8 @@ class Fluid:
 
 @dataclass(frozen=True)
 class Friction:
-    """Local friction coefficients of resistive-force theory (paper eq. 5, App. A).
+    """Local friction coefficients of resistive-force theory (paper Eqs. (6)–(7); Lighthill's
+    values Eq. (33), App. A).
 
     ``model``:
       * ``"paper"`` — γ∥ = 1.6e-3, γ⊥ = 2.8e-3 pN·s/µm², γR = 1.26e-6 pN·s (default),

@@ -122,7 +122,7 @@ def _rotate_z(v: np.ndarray, angle: float) -> np.ndarray:
 
 
 class Simulator:
-    """Motor-driven filament (paper §2): build from parameters, then :meth:`run`.
+    """Motor-driven filament (paper Sec. 2): build from parameters, then :meth:`run`.
 
     Parameters
     ----------

@@ -182,7 +182,7 @@ class PointRun:
                                                             "hook_stiffness") if k in v})
         thermal = bool(v.get("thermal", "kT" in v))
         solver = {"method": v.get("method", "implicit" if thermal else "cvode"),
-                  **({"rtol": v["rtol"], "atol": v["rtol"] * 1e-2} if "rtol" in v else {}),
+                  **({"rtol": v["rtol"]} if "rtol" in v else {}),
                   **({"dt": v["dt"]} if "dt" in v else {})}
         t_end = positive("time", v.get("time", 0.3), 1e6)
         save_every = positive("save_every", v.get("save_every", t_end / 300), t_end)
@@ -359,7 +359,7 @@ def _check_fallback(sweep: Sweep, fallback: Mapping | None) -> dict:
     if out:
         from .simulator import SolverOptions
 
-        SolverOptions(**{**out, **({"atol": out["rtol"] * 1e-2} if "rtol" in out else {})})
+        SolverOptions(**out)
     return out
 
 

@@ -37,7 +37,7 @@ class Trajectory:
     angles : (n_t, N+1) material angles θ_i [rad] of the hook frame (0) and the bond frames
         about their tangents, relative to the charts of the rod model.
     hook_tangent : (n_t, 3) unit tangent of the hook frame.
-    thrust : (n_t,) force of the filament on its anchor along e_z [pN] (paper §3.1).
+    thrust : (n_t,) force of the filament on its anchor along e_z [pN] (paper Sec. 3.1).
     anchor_force : (n_t, 3) elastic force on bead 0 [pN].
     motor_speed : (n_t,) rotation rate of the hook frame about e_z, ω·e_z [rad/s].
     motor_angle : (n_t,) accumulated (unwrapped) rotation of the hook frame about e_z [rad].
@@ -91,7 +91,7 @@ class Trajectory:
     def summary(self, t_from: float | None = None) -> Summary:
         """Time averages (:func:`flagellum.analysis.observables.summarize`). ω is the slope of
         the unwrapped hook angle: the rotation rate about the local helix axis at the motor
-        (paper §3.1.2), also when the hook tilts (buckled: ω·e_z is smaller by cos β)."""
+        (paper Sec. 3.1.2), also when the hook tilts (buckled: ω·e_z is smaller by cos β)."""
         return summarize(self.t, self.thrust, self.motor_angle, self.positions, self.energy,
                          self.meta.get("helix_radius", 0.2), t_from)
 

@@ -1,4 +1,4 @@
-"""The two bifurcations of the driven filament (paper §3.1, Fig. 3(a), Fig. 4(d)).
+"""The two bifurcations of the driven filament (paper Sec. 3.1, Fig. 3(a), Fig. 4(d)).
 
 * **M_c1**, the buckling threshold (supercritical Hopf): the root of the growth rate λ(M)
   of the aligned state (:func:`flagellum.analysis.stability.critical_torque`); its
@@ -17,7 +17,7 @@
 
 The simulation is a function ``simulate(torque, state) -> (probe, state)``
 (:class:`RunConfig` for the real filament), so the search logic can be tested against a
-cheap stand-in. Fresh runs follow the paper's protocol (§3.1.2) above ``step_from``: rotate
+cheap stand-in. Fresh runs follow the paper's protocol (Sec. 3.1.2) above ``step_from``: rotate
 aligned at M = 1 pN·µm, then step to M within 0.01 s; the window is the last half after
 the step.
 """
@@ -58,7 +58,7 @@ class RunConfig:
     params: Params = field(default_factory=Params)
     boundary: Boundary = field(default_factory=Boundary)
     t_end: float = 0.3  #: simulated time at the final torque [s]
-    step_from: float = 2.0  #: fresh runs at M ≥ this start aligned at M = 1 and step (§3.1.2)
+    step_from: float = 2.0  #: fresh runs at M ≥ this start aligned at M = 1 and step (Sec. 3.1.2)
     t_step: float = 0.05
     window: float = 0.5  #: averaging window: this fraction of the run at the final torque
     samples: int = 600

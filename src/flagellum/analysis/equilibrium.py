@@ -2,9 +2,9 @@
 
 Without motor torque the anchored filament (bead 0 fixed, free hook = universal joint) is in
 thermal equilibrium, so its statistics are Boltzmann in the discrete rod energy of paper
-eqs. (3)–(4) (:meth:`flagellum.rod.model.RodModel.energy`), whatever the dynamics (eqs. 5–8).
+Eqs. (3)–(5) (:meth:`flagellum.rod.model.RodModel.energy`), whatever the dynamics (Eqs. (6)–(10)).
 This module samples that distribution directly and gives the end-to-end distance
-r = |r(L) − r(0)| of eqs. (9)–(10) (paper §3.2, Fig. 4d: σ/σ0 with σ0 = R/√2) as a reference
+r = |r(L) − r(0)| of Eqs. (14)–(15) (paper Sec. 3.1.2, Fig. 4(d): σ/σ0 with σ0 = R/√2) as a reference
 for Brownian runs.
 
 Sampling (:class:`EquilibriumSampler`). The energy and the measure (Lebesgue in the beads,
@@ -32,7 +32,7 @@ from ..params import Params
 from ..rod.model import RodModel
 
 def sigma0(params: Params | None = None) -> float:
-    """σ0 = R/√2 [µm], the paper's unit of σ (§3.2)."""
+    """σ0 = R/√2 [µm], the paper's unit of σ (Sec. 3.1.2)."""
     return Helix.from_filament((params or Params()).filament).radius / math.sqrt(2.0)
 
 
@@ -44,7 +44,7 @@ def end_to_end_estimate(params: Params | None = None, kT: float | None = None) -
     * ``moment``: a force pair F along r acts on the end beads, which lie a distance R off
       the axis, so the axis carries a bending moment F·d(s), d interpolating linearly from
       R n̂(0) to R n̂(L) (n̂ radial unit vectors, azimuths kL apart). With the beam rigidity
-      A_eff of eq. (C.4): compliance R² L0 (2 + cos kL)/(3 A_eff). Equipartition of the
+      A_eff of Eq. (17): compliance R² L0 (2 + cos kL)/(3 A_eff). Equipartition of the
       linear part of r: σ_lin² = kT (1/k + that).
     * ``bend2``: second order in the bending of the axis, Δr = −½ Σ_⊥ ∫ (θ − θ̄)² ds with
       θ(s) the slope of the axis (rigid tilt, free at the universal joint, drops out).

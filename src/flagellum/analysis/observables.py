@@ -1,11 +1,11 @@
-"""Observables of a trajectory (paper §3.1–3.2).
+"""Observables of a trajectory (paper Sec. 3.1–3.2).
 
 * thrust F: force of the filament on its anchor along e_z (on the load sphere when attached),
 * ω: motor speed, the mean rotation rate of the hook frame (slope of its accumulated
   material angle, robust to thermal noise and to sparse sampling),
 * χ: precession rate of the filament as a whole about the motor axis (azimuthal rate of its
   centroid; zero when the centroid stays on the axis, as in the aligned state),
-* r(t) = |r_N − r_0|, ⟨r⟩ and σ (eqs. 9–10), σ in units of σ0 = R/√2,
+* r(t) = |r_N − r_0|, ⟨r⟩ and σ (Eqs. (14)–(15)), σ in units of σ0 = R/√2,
 * block-averaged means with standard errors, and a steady-state test.
 """
 

@@ -1,4 +1,4 @@
-"""Regimes of the driven filament (paper §3.1, Figs. 3–4), detected from observables only.
+"""Regimes of the driven filament (paper Sec. 3.1, Figs. 3–4), detected from observables only.
 
 The four regimes of Fig. 3(a), told apart by what a run shows in its averaging window
 (never by the torque value):
@@ -8,15 +8,15 @@ The four regimes of Fig. 3(a), told apart by what a run shows in its averaging w
       (λ ~ 0.1 /s, too slow to see in short runs), or it has already turned: its
       end-to-end vector is tilted by more than 45° on average.
 (ii)  ``aligned``: steady rotation about the motor axis: constant thrust, the centroid on
-      the axis, r(t) constant (σ ≈ 0; thermal noise alone gives σ/σ0 ≈ 0.15–0.18, §3.1.2).
+      the axis, r(t) constant (σ ≈ 0; thermal noise alone gives σ/σ0 ≈ 0.15–0.18, Sec. 3.1.2).
 (iii) ``buckled``: a bent shape of constant form rotating about its local helix axis and
-      precessing about the motor axis (§3.1.1): the centroid off the axis, the thrust
+      precessing about the motor axis (Sec. 3.1.1): the centroid off the axis, the thrust
       oscillating about a positive mean, the free end on a circle of radius R about the
       local axis, so r(t) swings by at most ≈ ±R and σ ≤ σ0 = R/√2 (the paper's definition
       of σ0, Fig. 4(d)).
 (iv)  ``oscillating``: the buckled state collapses periodically: it is compressed until
       the fixed end is perpendicular to the motor axis, the fast rotation and the thrust
-      stop, the bent filament relaxes and the cycle repeats (§3.1.1). σ jumps at M_c2
+      stop, the bent filament relaxes and the cycle repeats (Sec. 3.1.1). σ jumps at M_c2
       ("pronounced discontinuity", Fig. 4(d)); we require both signatures:
 
       * σ/σ0 > :data:`SIGMA_IV` = 1.5, a 50 % margin above the largest σ of regime (iii)
@@ -47,7 +47,7 @@ SIGMA_IV = 1.5
 #: r(t) that a collapse must cross both ways (a constant shape swings by at most ±R)
 SWING = 1.5
 #: buckled-state signatures: centroid offset [R], thrust std / |mean|, σ/σ0 (above the
-#: thermal σ/σ0 ≈ 0.18 of the aligned state, §3.1.2)
+#: thermal σ/σ0 ≈ 0.18 of the aligned state, Sec. 3.1.2)
 CENTROID_BUCKLED = 0.25
 THRUST_BUCKLED = 0.05
 SIGMA_BUCKLED = 0.3

@@ -1,16 +1,16 @@
-"""Linear stability of the steadily rotating filament (paper §3.1–3.2, Fig. 3a, Fig. 6).
+"""Linear stability of the steadily rotating filament (paper Sec. 3.1–3.2, Fig. 4(a), Fig. 5).
 
 Below the buckling torque M_c1 the motor-driven filament rotates rigidly about the motor
 axis e_z, aligned with the torque. In a frame co-rotating at its rate Ω (and, with a load
 sphere, co-moving at its speed v) this *aligned state* is a fixed point of the discrete
-rod dynamics (paper eqs. 5–6 and the hook balance of §2.3,
+rod dynamics (paper Eqs. (6)–(7) and the hook balance Eq. (12),
 :class:`flagellum.rod.model.RodModel`)::
 
     0 = f(y; Ω) = f_lab(y) − Ω G(y),
 
 with G the generator of rotations about e_z (the rhs is affine in Ω, so
 G = f(y; 0) − f(y; 1)). Its linear stability replaces the paper's fit
-|𝓕 − 𝓕0| ≈ δ𝓕0 exp(λt) sin(ωt) of a perturbed simulation (§3.1.2, Fig. 3a) by the
+|𝓕 − 𝓕0| ≈ δ𝓕0 exp(λt) sin(ωt) of a perturbed simulation (Eq. (13), Sec. 3.1.2, Fig. 4(a)) by the
 spectrum of the Jacobian.
 
 Method
@@ -37,7 +37,7 @@ Method
 
 Eigenvalues are in the co-rotating frame. A mode whose pattern turns at s|Im λ| (s = ±1)
 about e_z in that frame turns at Ω + s|Im λ| in the lab (``lab_frequency``); for the Hopf
-mode at M_c1 this is the precession rate χ of the buckled filament at onset (Fig. 3b).
+mode at M_c1 this is the precession rate χ of the buckled filament at onset (Fig. 4(b)).
 """
 
 from __future__ import annotations
@@ -96,7 +96,7 @@ class StabilityResult:
 
     ``eigenvalues``: the leading ``n_eigs`` non-trivial eigenvalues [1/s] (co-rotating
     frame), sorted by real part, largest first; ``lambda_`` the largest real part (the
-    paper's reorientation rate λ, Fig. 3a); ``frequency`` = |Im| of the leading one;
+    paper's reorientation rate λ, Fig. 4(a)); ``frequency`` = |Im| of the leading one;
     ``lab_frequency`` the rotation rate of its pattern about e_z in the lab [rad/s].
     """
 
@@ -361,9 +361,9 @@ def relative_equilibrium(params: Params | None = None, torque: float = 1.0,
 
     Parameters
     ----------
-    params : filament, fluid and friction (default: the paper's, §2.4).
-    torque : motor torque M [pN·µm], nonzero (M > 0 pushes, paper §3.1).
-    boundary : anchor and hook (default: fixed anchor, free hook, paper §2.3).
+    params : filament, fluid and friction (default: the paper's, Sec. 2.4).
+    torque : motor torque M [pN·µm], nonzero (M > 0 pushes, paper Sec. 3.1).
+    boundary : anchor and hook (default: fixed anchor, free hook, paper Sec. 2.3).
     tol : Newton tolerance on the update [µm, rad] (relative for Ω).
     max_step : largest continuation step in M [pN·µm].
 
@@ -420,7 +420,7 @@ def linear_stability(params: Params | None = None, torque: float = 1.0,
     Returns
     -------
     StabilityResult
-        λ = largest real part of the spectrum: λ < 0 the aligned state is stable (Fig. 3a).
+        λ = largest real part of the spectrum: λ < 0 the aligned state is stable (Fig. 4(a)).
     """
     if isinstance(n_eigs, bool) or not isinstance(n_eigs, (int, np.integer)) or n_eigs < 1:
         raise ParameterError("n_eigs", n_eigs, "an integer ≥ 1")
@@ -432,7 +432,7 @@ def linear_stability(params: Params | None = None, torque: float = 1.0,
 
 def critical_torque(params: Params | None = None, boundary: Boundary | None = None,
                     bracket: tuple[float, float] = (0.5, 2.0), xtol: float = 1e-4) -> CriticalTorque:
-    """Buckling threshold M_c1: the root of λ(M) in ``bracket`` (paper §3.1, §3.2).
+    """Buckling threshold M_c1: the root of λ(M) in ``bracket`` (paper Sec. 3.1, Sec. 3.2).
 
     All λ(M) evaluations share one continuation branch, so each Newton solve starts from the
     nearest torque already solved. Raises :class:`ParameterError` unless
@@ -470,7 +470,7 @@ def simulated_growth_rate(equilibrium: RelativeEquilibrium, t_end: float, *,
                           observable: str = "thrust", amplitude: float = 1e-6,
                           fit_from: float = 0.0, seed: int = 0, method: str = "Radau",
                           rtol: float = 1e-8, atol: float = 1e-12, samples: int = 20000) -> GrowthFit:
-    """λ the paper's way (§3.1.2): perturb, simulate, fit |X − X0| ≈ δX0 exp(λt).
+    """λ the paper's way (Sec. 3.1.2): perturb, simulate, fit |X − X0| ≈ δX0 exp(λt).
 
     The aligned state is displaced along a random direction of the reduced coordinates
     (norm ``amplitude``) and integrated in the co-rotating frame with scipy's ``method``;

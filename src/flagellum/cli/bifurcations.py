@@ -32,7 +32,7 @@ from ._output import emit_json, emit_table, write_json
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object (no progress bar)")
 def bifurcations(torque_range, t_end, quality, tol, hysteresis, confirm_mc1, mc1_only, workers,
                  out, as_json, **kwargs):
-    """Bifurcation torques: M_c1 (buckling) and M_c2 (oscillating buckled state), paper §3.1.
+    """Bifurcation torques: M_c1 (buckling) and M_c2 (oscillating buckled state), paper Sec. 3.1.
 
     M_c1 from linear stability; M_c2 from a scan of simulations classified by regime,
     refined by bisection (uncertainty: half the final bracket). Prints the regime found at

@@ -11,7 +11,7 @@ from ._output import emit_json, emit_table
 @click.command()
 @param_options
 @click.option("--critical-force", type=float, default=1.0, show_default=True,
-              help="F_c1 [pN] for the critical-torque line of eq. (25)")
+              help="F_c1 [pN] for the critical-torque line of the paper's Eq. (16)")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
 def rft(as_json, critical_force, **kwargs):
     """Rigid-helix resistive-force theory: geometry, friction coefficients, F/M, ω/M."""

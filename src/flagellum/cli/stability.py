@@ -16,7 +16,7 @@ from ._output import emit_json, emit_table
 @click.option("--n-eigs", type=int, default=6, show_default=True, help="leading eigenvalues to print")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
 def stability(torque, n_eigs, as_json, **kwargs):
-    """Linear stability of the aligned rotating filament at torque M (paper Fig. 3a).
+    """Linear stability of the aligned rotating filament at torque M (paper Fig. 4(a)).
 
     Prints Ω, the thrust, λ (largest real part of the spectrum in the co-rotating frame,
     rotational zero mode removed) and the leading eigenvalues as [re, im] pairs.
@@ -42,7 +42,7 @@ def stability(torque, n_eigs, as_json, **kwargs):
 @click.option("--xtol", type=float, default=1e-4, show_default=True, help="tolerance on M_c1 [pN·µm]")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
 def critical_torque(bracket, xtol, as_json, **kwargs):
-    """Buckling threshold M_c1 where λ(M) changes sign, with F_c1 and Ω there (paper §3.1–3.2)."""
+    """Buckling threshold M_c1 where λ(M) changes sign, with F_c1 and Ω there (paper Sec. 3.1–3.2)."""
     from ..analysis.stability import critical_torque as find
 
     boundary = boundary_from_cli(kwargs)

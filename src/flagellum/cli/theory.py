@@ -1,6 +1,6 @@
 """``flagellum theory …``: the analytical buckling theory on the command line.
 
-Subcommands: ``buckling`` (critical values of eq. lin buckling), ``manifold`` (Fig. 7 data
+Subcommands: ``buckling`` (critical values of Eq. (29)), ``manifold`` (Fig. 7 data
 and plot), ``rigid-helix`` (App. B) and ``effective-rigidity`` (App. C).
 """
 
@@ -12,17 +12,15 @@ import click
 import numpy as np
 
 from ..errors import ParameterError
+from ..paper import HELICES
 from ..params import check_range, check_real
 from ._options import param_options, params_from_cli
 from ._output import emit_json, emit_table
 
-#: Helix geometries of App. C (Fig. 8): normal form (peritrichous) and monotrichous.
-GEOMETRIES = {"normal": (1.3, 2.1), "monotrichous": (2.2, 2.5)}
-
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 def theory():
-    """Analytical buckling theory of the helical rod (paper §4, App. B and C)."""
+    """Analytical buckling theory of the helical rod (paper Sec. 4, App. B and C)."""
 
 
 def _floats(name: str, text: str | None):
@@ -66,7 +64,7 @@ def _count(name: str, value: int, lo: int, hi: int) -> int:
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
 def buckling(m_hat, f_par, f_perp, chi, base, top, force_profile, torque_profile, unknowns,
              guess, method, samples, as_json):
-    """Critical values of the linearised buckling equations (paper §4, eq. lin buckling)."""
+    """Critical values of the linearised buckling equations (paper Sec. 4.1, Eqs. (29)–(30))."""
     from ..theory.buckling import BucklingProblem, solve
 
     prob = BucklingProblem(m_hat, f_par, f_perp, chi, base, top, force_profile, torque_profile)
@@ -77,7 +75,7 @@ def buckling(m_hat, f_par, f_perp, chi, base, top, force_profile, torque_profile
         emit_json(out)
     else:
         emit_table({k: v for k, v in out.items() if k != "mode"},
-                   "Critical point of eq. (lin buckling) (dimensionless)")
+                   "Critical point of Eq. (29) (dimensionless)")
         click.echo("mode (z, X, Y):")
         for z, x, y in zip(mode.z, mode.X, mode.Y):
             click.echo(f"  {z:6.3f} {x: .6f} {y: .6f}")
@@ -100,7 +98,7 @@ def buckling(m_hat, f_par, f_perp, chi, base, top, force_profile, torque_profile
 @click.option("--json", "as_json", is_flag=True, help="print the summary as JSON")
 def manifold(out_dir, m_max, m_steps, f_par_max, f_par_steps, inv_a_max, inv_a_steps, base,
              workers, as_json, **kwargs):
-    """Critical manifold, buckling curves, plane of eq. (plane) and M_c1(1/a) (Fig. 7)."""
+    """Critical manifold, buckling curves, plane of Eq. (31) and M_c1(1/a) (Fig. 7)."""
     from ..params import check_choice
     from ..theory.buckling import BASES
     from ..theory.manifold import compute_manifold, write_manifold
@@ -177,13 +175,13 @@ def effective_rigidity_summary(params) -> dict:
         return {"kappa0": p.filament.kappa0, "tau0": p.filament.tau0,
                 "pitch_angle_deg": math.degrees(rod.pitch_angle), "L0": rod.L0,
                 "A_eff": rod.A_eff, "A_eff_over_L0": rod.torque_scale,
-                "A_perp": rod.a_perp * rod.L0,   # whole filament, eq. (A.5)
+                "A_perp": rod.a_perp * rod.L0,   # whole filament, Eq. (38a)
                 "torque_scale": rod.torque_scale, "rate_scale": rod.master_rate_scale}
 
     own = scales(params)
     return {"A_eff": own["A_eff"], "A_eff_over_L0": own["A_eff_over_L0"], "filament": own,
             **{name: scales(params.replace(kappa0=k, tau0=t))
-               for name, (k, t) in GEOMETRIES.items()}}
+               for name, (k, t) in HELICES.items()}}
 
 
 @theory.command("effective-rigidity")
@@ -204,6 +202,6 @@ def effective_rigidity(as_json, measure, **kwargs):
     else:
         emit_table({k: v for k, v in out.items() if not isinstance(v, dict)},
                    "Effective bending rigidity (App. C; units pN, µm, s)")
-        for name in ("filament", *GEOMETRIES):
+        for name in ("filament", *HELICES):
             emit_table(out[name], f"{name}:")
 

@@ -1,4 +1,4 @@
-"""Local resistive-force drag of the discrete filament (paper Sec. 2.2, Eqs. (7)–(8)).
+"""Local resistive-force drag of the discrete filament (paper Sec. 2.2, Eqs. (6)–(7)).
 
 The one place that says which friction each bead, each bond spin and the hook frame carry.
 The deterministic right-hand side (:func:`flagellum.rod.kernels.rhs`), the thermal forces of

@@ -1,13 +1,13 @@
-"""Resistive-force theory (RFT) of a rigid helix (paper App. A, §3.3, App. C).
+"""Resistive-force theory (RFT) of a rigid helix (paper App. A, Sec. 3.2, App. C).
 
-Sign convention of the paper (eq. A.1): the force and torque *applied to* a rigid body
+Sign convention of the paper (Eq. (32)): the force and torque *applied to* a rigid body
 moving with velocity v and angular velocity ω are ::
 
     (F, M) = [[A, C], [Cᵀ, B]] (v, ω),
 
 with local force density f = (γ∥ t⊗t + γ⊥(1 − t⊗t))(v + ω×r) and torque density r×f
 (+ γR (t·ω) t if spin friction is included). For a right-handed helix along +z, C∥ < 0.
-The *thrust* is the paper's F of §3: the force the filament exerts on its anchor along
+The *thrust* is the paper's F of Sec. 3.1.1: the force the filament exerts on its anchor along
 the motor axis, positive when it pushes (anchored helix: F/M = −C∥/B∥).
 """
 
@@ -22,7 +22,7 @@ from ..helix import DiscreteHelix, Helix
 
 
 def full_turn_coefficients(helix: Helix, gamma_par: float, gamma_perp: float) -> dict:
-    """Friction coefficients of eq. (A.5) for a helix of contour length ``helix.length``.
+    """Friction coefficients of Eq. (38) for a helix of contour length ``helix.length``.
 
     Exact for whole turns; A∥ holds for any length. ``C_par`` carries the handedness::
 
@@ -50,11 +50,11 @@ def _skew(r: np.ndarray) -> np.ndarray:
 
 def resistance_matrix(points, tangents, weights, gamma_par, gamma_perp, gamma_rot=0.0,
                       origin=(0.0, 0.0, 0.0)) -> np.ndarray:
-    """6×6 resistance matrix [[A, C], [Cᵀ, B]] by quadrature over nodes (eq. A.1–A.3).
+    """6×6 resistance matrix [[A, C], [Cᵀ, B]] by quadrature over nodes (Eqs. (32)–(35)).
 
     ``points`` (n, 3), unit ``tangents`` (n, 3), ``weights`` (n,) are quadrature nodes along
     the filament (lengths for lumped beads). Torques are about ``origin``. ``gamma_rot``
-    adds spin friction γR (t·ω) t per length (omitted in the paper's eq. A.5).
+    adds spin friction γR (t·ω) t per length (omitted in the paper's Eq. (38)).
     """
     r = np.asarray(points, float) - np.asarray(origin, float)
     t = np.asarray(tangents, float)
@@ -80,7 +80,7 @@ def helix_nodes(helix: Helix, nodes_per_turn: int = 64):
 
 
 def bead_nodes(dh: DiscreteHelix):
-    """The simulator's lumped drag nodes: beads with averaged tangents (paper §2.2).
+    """The simulator's lumped drag nodes: beads with averaged tangents (paper Sec. 2.2).
 
     Bead i (1 ≤ i < N) carries length h with t = (e3⁽ⁱ⁾ + e3⁽ⁱ⁺¹⁾)/|…|; the end beads
     carry h/2 and the tangent of their one bond.
@@ -95,7 +95,7 @@ def bead_nodes(dh: DiscreteHelix):
 
 
 def anchored_helix(coeffs: dict) -> dict:
-    """Rigid helix rotating about its own axis, held in place (§3.1): v = 0.
+    """Rigid helix rotating about its own axis, held in place (Sec. 3.1): v = 0.
 
     ω/M = 1/B∥, thrust F/M = −C∥/B∥ (force on the anchor, > 0 when pushing).
     """
@@ -104,7 +104,7 @@ def anchored_helix(coeffs: dict) -> dict:
 
 
 def load_sphere(coeffs: dict, torque: float, sphere_radius: float, viscosity: float) -> dict:
-    """Rigid helix pushing a sphere of radius a (drag ζ = 6πηa) along its axis (§3.3).
+    """Rigid helix pushing a sphere of radius a (drag ζ = 6πηa) along its axis (Sec. 3.2).
 
     Solves (A∥ + ζ) v + C∥ ω = 0, M = C∥ v + B∥ ω; thrust F = ζ v on the sphere.
     """
@@ -116,7 +116,7 @@ def load_sphere(coeffs: dict, torque: float, sphere_radius: float, viscosity: fl
 
 
 def critical_torque_line(coeffs: dict, critical_force: float, viscosity: float) -> dict:
-    """Eq. (25): M_c1 = −(B∥/C∥) F_c1 + (C∥ − A∥B∥/C∥) F_c1/(6πη) · (1/a).
+    """Eq. (16): M_c1 = −(B∥/C∥) F_c1 + (C∥ − A∥B∥/C∥) F_c1/(6πη) · (1/a).
 
     Returns ``intercept`` [pN·µm] and ``slope_per_inverse_radius`` [pN·µm²].
     """
@@ -127,7 +127,7 @@ def critical_torque_line(coeffs: dict, critical_force: float, viscosity: float) 
 
 def effective_bending_rigidity(helix: Helix | float | np.ndarray, bend_rigidity: float,
                                twist_rigidity: float):
-    """App. C, eq. (C.4): 1/A_eff = (1 + sin²α + (A/C) cos²α) / (2 A sin α).
+    """Eq. (17) (derived in App. C, Eq. (47)): 1/A_eff = (1 + sin²α + (A/C) cos²α) / (2 A sin α).
 
     ``helix`` is a :class:`Helix` or its pitch angle α [rad]; an array of angles gives an
     array of A_eff.

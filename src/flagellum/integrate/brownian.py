@@ -1,12 +1,12 @@
 """Fixed-step drift-implicit Euler scheme for the overdamped (Brownian) dynamics.
 
-One step of size Δt from state q_n (paper eqs. 5–8)::
+One step of size Δt from state q_n (paper Eqs. (6)–(10))::
 
     q_{n+1} = q_n + Δt f(q_{n+1}) + Δt M(q_n) ξ_n + Δt kT ∂_q·M(q_n),
 
 with f the deterministic drift, M the configuration-dependent mobility and ξ the thermal
 forces and torques, Gaussian with ⟨ξξᵀ⟩ = 2kT R/Δt where R is the local friction of
-eqs. (7)–(8) (beads: w[γ∥ tt + γ⊥(1 − tt)], bonds: γR h, hook: γR h t t + ½γ⊥h³(1 − tt)).
+Eqs. (8)–(10) (beads: w[γ∥ tt + γ⊥(1 − tt)], bonds: γR h, hook: γR h t t + ½γ⊥h³(1 − tt)).
 The Itô drift kT ∂_q·M (which the paper's equations leave implicit) is sampled without
 bias by a random finite difference (Delong et al., J. Chem. Phys. 140, 134110 (2014))::
 

@@ -1,19 +1,19 @@
 """Shared machinery of ``flagellum reproduce``: qualities, output files, the comparison
 table, the process pool of the figures, and the simulation of one torque (Fig. 3 and Fig. 4).
 
-The targets are named fig3 … fig8; the printed article numbers its figures with the
-sketches (and the TeX source labels them):
+The targets are named fig3 … fig8 after the figures they reproduce; the paper's source
+numbers its figures with the sketches (docs/model.md, "How equations are cited"):
 
-=====  ====================================================  ===========  ======================
-fig    content                                               printed      label in the TeX source
-=====  ====================================================  ===========  ======================
-fig3   thrust F(M), F(t) in the four regimes, tangent tip    Fig. 5       ``fig: RotStat``
-fig4   λ, ω and χ, ⟨r⟩/L0, σ/σ0 (with thermal points)        Fig. 6       ``fig: RotStatII``
-fig5   M_c1(1/a) and F_c1(M_c1) with a load sphere           Fig. 7       ``fig: dynamic``
-fig6   the helical rod of the theory (L0, A_eff, loads)      Fig. 8       (unlabelled, Sec. 4.1)
-fig7   critical manifold, buckling curves, plane ∩ manifold  Fig. 9       ``fig: buckling theory``
-fig8   master curve of the reorientation rate (App. C)       Fig. 11      ``fig: compare reorientation rate``
-=====  ====================================================  ===========  ======================
+=====  ====================================================  =======  ==========
+fig    content                                               source   section
+=====  ====================================================  =======  ==========
+fig3   thrust F(M), F(t) in the four regimes, tangent tip    Fig. 5   Sec. 3.1.1
+fig4   λ, ω and χ, ⟨r⟩/L0, σ/σ0 (with thermal points)        Fig. 6   Sec. 3.1.2
+fig5   M_c1(1/a) and F_c1(M_c1) with a load sphere           Fig. 7   Sec. 3.2
+fig6   the helical rod of the theory (L0, A_eff, loads)      Fig. 8   Sec. 4.1
+fig7   critical manifold, buckling curves, plane ∩ manifold  Fig. 9   Sec. 4.2
+fig8   master curve of the reorientation rate                Fig. 11  App. C
+=====  ====================================================  =======  ==========
 """
 
 from __future__ import annotations
@@ -32,6 +32,18 @@ from ..errors import ParameterError
 
 QUALITIES = ("quick", "full")
 FIGURES = ("fig3", "fig4", "fig5", "fig6", "fig7", "fig8")
+#: units of the CSV columns of the figures (headers ``name [unit]``; columns not listed are
+#: dimensionless or text; the rod theory's hats m̂, f̂∥, f̂⊥, χ̂ have their own names)
+UNITS = {
+    "torque": "pN·µm", "t": "s", "t_end": "s", "t_from": "s", "wall_seconds": "s",
+    "thrust": "pN", "thrust_mean": "pN", "thrust_min": "pN", "thrust_max": "pN",
+    "thrust_std": "pN", "omega": "rad/s", "chi": "rad/s", "lambda": "1/s", "frequency": "rad/s",
+    "lab_frequency": "rad/s", "r_mean": "µm", "r_std": "µm", "end_to_end": "µm",
+    "hook_tilt_max_deg": "deg", "inv_a": "1/µm", "a": "µm", "M_c1": "pN·µm", "F_c1": "pN",
+    "velocity": "µm/s", "chi_onset": "rad/s", "kappa0": "1/µm", "tau0": "1/µm", "A": "pN·µm²",
+    "C": "pN·µm²", "L": "µm", "L0": "µm", "A_eff": "pN·µm²", "A_perp": "pN·s/µm",
+    "torque_scale": "pN·µm", "rate_scale": "1/s",
+}
 
 
 def check_quality(quality: str) -> str:
@@ -205,7 +217,7 @@ def simulate_point(spec: dict) -> dict:
     """Simulate the anchored filament at one torque and measure the observables of Fig. 3–4.
 
     ``spec`` keys: ``torque`` [pN·µm]; ``t_end`` [s]; ``protocol`` ``"rest"`` (start from
-    the stress-free helix) or ``"step"`` (the paper's protocol, §3.1.2: rotate at M = 1
+    the stress-free helix) or ``"step"`` (the paper's protocol, Sec. 3.1.2: rotate at M = 1
     until ``t_step``, then ramp to ``torque`` within 0.01 s); ``frame`` (``"auto"`` or
     ``"lab"``); ``thermal`` with ``seed`` and ``dt``; ``window`` — the averaging window
     starts at t_end − window·(t_end − t_start); ``series`` — keep time series for plots.
@@ -293,5 +305,5 @@ def simulate_point(spec: dict) -> dict:
     return out
 
 
-__all__ = ["QUALITIES", "FIGURES", "Comparison", "check_quality", "job_cost", "pmap",
+__all__ = ["QUALITIES", "FIGURES", "UNITS", "Comparison", "check_quality", "job_cost", "pmap",
            "save_figure", "write_h5", "simulate_point", "pixel_variance"]

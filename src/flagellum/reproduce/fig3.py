@@ -1,11 +1,11 @@
-"""Fig. 3 (``fig: RotStat``): thrust F versus motor torque M with the four regimes, the RFT
+"""Fig. 3 (Sec. 3.1.1): thrust F versus motor torque M with the four regimes, the RFT
 line, F(t) in each regime, and the trajectory of the tip of the first tangent vector.
 
 Method
 ------
 * A deterministic simulation per torque (:func:`.common.simulate_point`), anchored filament,
   free hook, N = 50. Torques M < 2 start from the stress-free helix; larger torques follow
-  the paper's protocol (§3.1.2): rotate at M = 1 pN·µm, then step to M (within 0.01 s).
+  the paper's protocol (Sec. 3.1.2): rotate at M = 1 pN·µm, then step to M (within 0.01 s).
   Observables are averaged over the last half of the run (after the step).
 * Regime of each run: :func:`flagellum.analysis.regimes.classify`, with regime (iv)
   required to have σ/σ0 > 1.5 (see :data:`flagellum.analysis.regimes.SIGMA_IV`).
@@ -31,7 +31,7 @@ import numpy as np
 from .._plot import pyplot
 from ..io import write_csv
 from ..paper import PAPER
-from .common import REGIME_LABELS, Comparison, Timer, save_figure, write_h5
+from .common import REGIME_LABELS, UNITS, Comparison, Timer, save_figure, write_h5
 from .shared import PANEL_TORQUES, REGIME_COLORS, Cache
 
 #: buckled runs up to this torque enter the Hopf extrapolation (amplitude² ∝ M − M_c1 holds
@@ -160,7 +160,7 @@ def write(out_dir: Path, data: Fig3Data, quality: str) -> list[Path]:
             "sigma_over_sigma0", "hook_tilt_max_deg", "wall_seconds", "error")
     text = ("protocol", "frame", "solver", "regime", "error")
     table = {c: [p.get(c, "") for p in points] for c in cols}
-    files.append(write_csv(out_dir / "sweep.csv", table))
+    files.append(write_csv(out_dir / "sweep.csv", table, UNITS))
     groups = {"sweep": {c: np.array([p.get(c, np.nan) if c not in text else str(p.get(c, ""))
                                      for p in points], dtype=None if c not in text else object)
                         for c in cols}}
@@ -173,7 +173,7 @@ def write(out_dir: Path, data: Fig3Data, quality: str) -> list[Path]:
         files.append(write_csv(out_dir / f"{name}.csv",
                                {"t": s["t"], "thrust": s["thrust"], "tangent_x": s["hook_tangent"][:, 0],
                                 "tangent_y": s["hook_tangent"][:, 1], "tangent_z": s["hook_tangent"][:, 2],
-                                "end_to_end": s["r"]}))
+                                "end_to_end": s["r"]}, UNITS))
         groups[name] = {"t": s["t"], "thrust": s["thrust"], "hook_tangent": s["hook_tangent"], "r": s["r"]}
     files.append(write_h5(out_dir / "fig3.h5", groups, {"quality": quality}))
     return files

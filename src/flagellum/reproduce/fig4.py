@@ -1,4 +1,4 @@
-"""Fig. 4 (``fig: RotStatII``): (a) relaxation rate λ of the aligned state versus M,
+"""Fig. 4 (Sec. 3.1.2): (a) relaxation rate λ of the aligned state versus M,
 (b) rotation rate ω and precession rate χ, (c) mean end-to-end distance ⟨r⟩/L0 and
 (d) its standard deviation σ/σ0 (σ0 = R/√2), with thermal (Brownian) points.
 
@@ -29,7 +29,7 @@ import numpy as np
 from .._plot import pyplot
 from ..io import write_csv
 from ..paper import PAPER
-from .common import Comparison, Timer, pmap, save_figure, simulate_point, write_h5
+from .common import UNITS, Comparison, Timer, pmap, save_figure, simulate_point, write_h5
 from .shared import REGIME_COLORS, Cache
 
 LAMBDA_TORQUES = {
@@ -171,12 +171,14 @@ def write(out_dir: Path, data: Fig4Data, quality: str) -> list[Path]:
     lam, points, thermal = data.lam, data.points, data.thermal
     files = [write_csv(out_dir / "lambda.csv", {k: [p.get(k, math.nan) for p in lam] for k in
                                                ("torque", "lambda", "frequency", "lab_frequency",
-                                                "omega", "thrust")})]
+                                                "omega", "thrust")}, UNITS)]
     cols = ("torque", "regime", "omega", "chi", "r_mean", "r_std", "r_over_L0", "sigma_over_sigma0")
-    files.append(write_csv(out_dir / "observables.csv", {c: [p.get(c, "") for p in points] for c in cols}))
+    files.append(write_csv(out_dir / "observables.csv", {c: [p.get(c, "") for p in points] for c in cols},
+                           UNITS))
     tcols = ("torque", "t_end", "t_from", "thrust_mean", "thrust_std", "r_mean", "r_std", "r_over_L0",
              "sigma_over_sigma0", "sigma_fast_over_sigma0", "wall_seconds", "error")
-    files.append(write_csv(out_dir / "thermal.csv", {c: [p.get(c, "") for p in thermal] for c in tcols}))
+    files.append(write_csv(out_dir / "thermal.csv", {c: [p.get(c, "") for p in thermal] for c in tcols},
+                           UNITS))
     num = lambda rows, keys: {k: np.array([float(p.get(k, math.nan)) if not isinstance(p.get(k), str)
                                            else math.nan for p in rows]) for k in keys}
     files.append(write_h5(out_dir / "fig4.h5", {

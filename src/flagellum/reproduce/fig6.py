@@ -1,18 +1,19 @@
-"""Fig. 6 (the sketch of §4.1): the helical filament replaced by a straight rod of length
+"""Fig. 6 (the sketch of Sec. 4.1): the helical filament replaced by a straight rod of length
 L0 = L sin α with the effective bending rigidity A_eff (App. C), loaded by the thrust
-density f∥ and the torque density m (linear force and torque profiles, eqs. 18 and 20),
+density f∥ and the torque density m (linear force and torque profiles, Eqs. (21) and (23)),
 and by the friction f⊥ and the precession χ.
 
 The paper's figure is a sketch without numbers, so this target computes the quantities it
 shows for the paper's filament — L0, α, R, A_eff, the friction coefficients per length and
-the scales of the hats — and compares the numbers the paper states about them (§2.4, §3,
-§4.2, §5). Panels: (a) the helix and its rod, (b) the force and torque profiles at the
+the scales of the hats — and compares the numbers the paper states about them (Sec. 2.4,
+Sec. 3, Sec. 4.2, Sec. 5). Panels: (a) the helix and its rod, (b) the force and torque profiles at the
 theory's anchored buckling threshold, (c) A_eff/A versus pitch angle.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +23,29 @@ from ..io import write_csv
 from ..hydro.rft import effective_bending_rigidity
 from ..paper import MONOTRICHOUS_HELIX, PAPER
 from .common import Comparison, Timer, save_figure, write_h5
+
+#: units of the quantities (the column ``unit`` of ``quantities.csv``; "" if dimensionless)
+QUANTITY_UNITS = {
+    "kappa0": "1/µm", "tau0": "1/µm", "radius": "µm", "pitch": "µm", "pitch_angle_deg": "deg",
+    "length": "µm", "L0": "µm", "turn_length": "µm", "A": "pN·µm²", "C": "pN·µm²",
+    "A_eff": "pN·µm²", "torque_scale_A_eff_over_L0": "pN·µm", "force_scale_A_eff_over_L0sq": "pN",
+    "rate_scale_A_eff_over_aperp_L0_4": "1/s", "gamma_par": "pN·s/µm²", "gamma_perp": "pN·s/µm²",
+    "gamma_rot": "pN·s", "gamma_par_lighthill": "pN·s/µm²", "gamma_perp_lighthill": "pN·s/µm²",
+    "gamma_rot_lighthill": "pN·s", "a_perp": "pN·s/µm²", "a_par": "pN·s/µm²", "b_par": "pN·s",
+    "c_par": "pN·s/µm", "theory_M_c1": "pN·µm", "theory_F_c1": "pN", "m_density": "pN",
+    "f_par_density": "pN/µm", "spring_constant_A_over_R2L": "pN/µm", "persistence_length": "µm",
+    "twist_per_length_at_M_c1": "rad/µm", "radius_at_M_c1_mean_twist": "µm"}
+#: quantities ``reproduce`` returns
+HEADLINE = ("L0", "pitch_angle_deg", "A_eff", "torque_scale_A_eff_over_L0",
+            "force_scale_A_eff_over_L0sq", "a_perp", "a_par", "b_par", "c_par", "theory_M_c1",
+            "theory_F_c1", "turns", "compression_at_1pN")
+
+
+@dataclass(frozen=True)
+class Fig6Data:
+    """What Fig. 6 is drawn from: the numbers of the effective rod (:func:`quantities`)."""
+
+    quantities: dict
 
 
 def quantities(params=None) -> dict:
@@ -76,7 +100,7 @@ def quantities(params=None) -> dict:
 
 
 def a_eff_ratio(alpha, A_over_C):
-    """A_eff/A of eq. (C.4) at pitch angle(s) ``alpha`` [rad]."""
+    """A_eff/A of Eq. (17) at pitch angle(s) ``alpha`` [rad]."""
     return effective_bending_rigidity(alpha, A_over_C, 1.0) / A_over_C
 
 
@@ -129,30 +153,28 @@ def plot(q: dict, quality: str, out_dir: Path):
         a.plot(deg, a_eff_ratio(math.radians(deg), q["A"] / q["C"]), "ko")
         a.annotate(name, (deg, a_eff_ratio(math.radians(deg), q["A"] / q["C"])), textcoords="offset points",
                    xytext=(5, -12), fontsize=8)
-    a.set(xlabel="pitch angle α [deg]", ylabel="$A_{eff}/A$ (eq. C.4)", title="(c) effective bending rigidity")
+    a.set(xlabel="pitch angle α [deg]", ylabel="$A_{eff}/A$ (Eq. (17))", title="(c) effective bending rigidity")
     a.legend(fontsize=8)
-    return save_figure(fig, out_dir, "fig6", f"Fig. 6: the helical rod of §4.1 (quality {quality})")
+    return save_figure(fig, out_dir, "fig6", f"Fig. 6: the helical rod of Sec. 4.1 (quality {quality})")
 
 
-def run(out_dir: Path, quality: str, cache=None) -> dict:
-    """Compute, plot and write the figure into ``out_dir`` (``cache`` unused: nothing shared)."""
-    timer = Timer()
-    out_dir.mkdir(parents=True, exist_ok=True)
-    q = quantities()
-    files = plot(q, quality, out_dir)
-    units = {"kappa0": "1/µm", "tau0": "1/µm", "radius": "µm", "pitch": "µm", "pitch_angle_deg": "deg",
-             "length": "µm", "L0": "µm", "turn_length": "µm", "A": "pN·µm²", "C": "pN·µm²",
-             "A_eff": "pN·µm²", "torque_scale_A_eff_over_L0": "pN·µm", "force_scale_A_eff_over_L0sq": "pN",
-             "rate_scale_A_eff_over_aperp_L0_4": "1/s", "gamma_par": "pN·s/µm²", "gamma_perp": "pN·s/µm²",
-             "gamma_rot": "pN·s", "gamma_par_lighthill": "pN·s/µm²", "gamma_perp_lighthill": "pN·s/µm²",
-             "gamma_rot_lighthill": "pN·s", "a_perp": "pN·s/µm²", "a_par": "pN·s/µm²", "b_par": "pN·s",
-             "c_par": "pN·s/µm", "theory_M_c1": "pN·µm", "theory_F_c1": "pN", "m_density": "pN",
-             "f_par_density": "pN/µm", "spring_constant_A_over_R2L": "pN/µm", "persistence_length": "µm",
-             "twist_per_length_at_M_c1": "rad/µm", "radius_at_M_c1_mean_twist": "µm"}
-    files.append(write_csv(out_dir / "quantities.csv", {"quantity": list(q), "value": list(q.values()),
-                                                        "unit": [units.get(k, "") for k in q]}))
-    files.append(write_h5(out_dir / "fig6.h5", {"quantities": {k: np.array(v) for k, v in q.items()}},
-                          {"quality": quality}))
+def compute(quality: str, cache=None) -> Fig6Data:
+    """The quantities of the paper's filament (nothing shared: ``cache`` is unused)."""
+    return Fig6Data(quantities())
+
+
+def write(out_dir: Path, data: Fig6Data, quality: str) -> list[Path]:
+    """``quantities.csv`` (quantity, value, unit) and ``fig6.h5``."""
+    q = data.quantities
+    return [write_csv(out_dir / "quantities.csv", {"quantity": list(q), "value": list(q.values()),
+                                                   "unit": [QUANTITY_UNITS.get(k, "") for k in q]}),
+            write_h5(out_dir / "fig6.h5", {"quantities": {k: np.array(v) for k, v in q.items()}},
+                     {"quality": quality})]
+
+
+def compare(data: Fig6Data, quality: str) -> Comparison:
+    """The comparison table of ``comparison.md``."""
+    q = data.quantities
     cmp = Comparison("fig6", "the helical rod of the buckling theory (sketch quantities)", quality)
     cmp.add("helical turns of the L = 10 µm filament", PAPER["turns"].value, q["turns"], "",
             "L / (2πR/cos α)")
@@ -176,8 +198,22 @@ def run(out_dir: Path, quality: str, cache=None) -> dict:
     cmp.note(f"Anchored threshold of the rod theory (constant friction): m̂ = {q['m_hat']:.3f}, "
              f"f̂∥ = {q['f_par_hat']:.2f}, χ̂ = {q['chi_hat']:.1f}, i.e. M = {q['theory_M_c1']:.3f} pN·µm, "
              f"F = {q['theory_F_c1']:.3f} pN (see fig7).")
-    files.append(cmp.write(out_dir))
-    return {**{k: q[k] for k in ("L0", "pitch_angle_deg", "A_eff", "torque_scale_A_eff_over_L0",
-                                 "force_scale_A_eff_over_L0sq", "a_perp", "a_par", "b_par", "c_par",
-                                 "theory_M_c1", "theory_F_c1", "turns", "compression_at_1pN")},
-            "quality": quality, "wall_seconds": timer.seconds, "files": [str(f) for f in files]}
+    return cmp
+
+
+def headline(data: Fig6Data, quality: str, seconds: float, files: list) -> dict:
+    """The numbers ``reproduce`` returns."""
+    return {**{k: data.quantities[k] for k in HEADLINE},
+            "quality": quality, "wall_seconds": seconds, "files": [str(f) for f in files]}
+
+
+def run(out_dir: Path, quality: str, cache=None) -> dict:
+    """Compute, plot and write Fig. 6 into ``out_dir`` (no analysis step: the quantities are
+    the result); returns :func:`headline`."""
+    timer = Timer()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    data = compute(quality, cache)
+    files = plot(data.quantities, quality, out_dir)
+    files += write(out_dir, data, quality)
+    files.append(compare(data, quality).write(out_dir))
+    return headline(data, quality, timer.seconds, files)

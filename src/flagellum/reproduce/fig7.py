@@ -1,12 +1,12 @@
-"""Fig. 7 (``fig: buckling theory``): (a) the manifold of bifurcation points of the helical
+"""Fig. 7 (Sec. 4.2): (a) the manifold of bifurcation points of the helical
 rod in (m̂, f̂∥, f̂⊥), (b) buckling curves f̂∥(m̂) for f̂⊥ = 0, 25, …, 300 with the critical
-points of the filament (red dots), (c) the plane of eq. (plane) and its intersection with
+points of the filament (red dots), (c) the plane of Eq. (31) and its intersection with
 the manifold, (d) the resulting critical force-torque relation, for constant friction
 coefficients and with the torque-dependent radius.
 
 Method
 ------
-* The rod theory of §4 (:func:`flagellum.theory.manifold.compute_manifold`, shooting with
+* The rod theory of Sec. 4 (:func:`flagellum.theory.manifold.compute_manifold`, shooting with
   exact Newton Jacobians, see docs/theory.md).
 * Red dots: M_c1, F_c1 of the filament with load spheres from the linear stability of the
   aligned state (the data of Fig. 5 when run together, otherwise a few load spheres),
@@ -18,21 +18,35 @@ Method
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .._plot import pyplot
 from ..io import write_csv
 from ..paper import PAPER
-from .common import Comparison, Timer, save_figure, write_h5
+from .common import UNITS, Comparison, Timer, save_figure, write_h5
 from .shared import Cache, LoadSphereThresholds, rod_theory_curve
+
+if TYPE_CHECKING:
+    from ..theory.manifold import ManifoldResult
 
 GRIDS = {"quick": dict(m_values=np.linspace(0, 20, 21), f_par_values=np.linspace(0, 120, 13),
                        inv_a_values=np.linspace(0, 5, 11)),
          "full": dict(m_values=np.linspace(0, 20, 41), f_par_values=np.linspace(0, 120, 41),
                       inv_a_values=np.linspace(0, 5, 21))}
 DOT_INV_A = {"quick": (0.0, 1.0, 4.0), "full": (0.0, 0.5, 1.0, 2.0, 4.0, 10.0)}
+
+
+@dataclass(frozen=True)
+class Fig7Data:
+    """What Fig. 7 is drawn from: the manifold of the rod theory and the filament's red dots."""
+
+    result: ManifoldResult    #: :func:`~flagellum.theory.manifold.compute_manifold`
+    dots: tuple[dict, ...]    #: :func:`red_dots`
+    manifold_seconds: float   #: wall time of :func:`~flagellum.theory.manifold.compute_manifold`
 
 
 def red_dots(quality: str, cache: Cache | None = None) -> list[dict]:
@@ -114,7 +128,7 @@ def plot(res, dots, quality, out_dir: Path):
                 for m in mline]
     a.plot(mline, anchored, "w:", lw=1, label=r"plane at $\hat f_\perp$ = 0 (anchored)")
     a.set_ylim(s.f_par.min(), s.f_par.max())
-    a.set(xlabel=r"$\hat m$", ylabel=r"$\hat f_\parallel$", title="(c) plane of eq. (plane) on the manifold")
+    a.set(xlabel=r"$\hat m$", ylabel=r"$\hat f_\parallel$", title="(c) plane of Eq. (31) on the manifold")
     a.legend(fontsize=7, loc="upper right")
     a = fig.add_subplot(2, 2, 4)
     for rc, style, col in ((False, "-", "tab:blue"), (True, "--", "tab:green")):
@@ -131,35 +145,21 @@ def plot(res, dots, quality, out_dir: Path):
     return save_figure(fig, out_dir, "fig7")
 
 
-def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
-    from ..theory.manifold import compute_manifold, write_manifold
+def compute(quality: str, cache: Cache | None = None) -> Fig7Data:
+    """The manifold on the quality's grid and the red dots (those of Fig. 5 from ``cache``)."""
+    from ..theory.manifold import compute_manifold
 
     timer = Timer()
-    out_dir.mkdir(parents=True, exist_ok=True)
     res = compute_manifold(**GRIDS[quality])
-    t_manifold = timer.seconds
-    dots = red_dots(quality, cache)
-    rod = res.rod
-    files = plot(res, dots, quality, out_dir)
-    data_dir = out_dir / "manifold"
-    files += write_manifold(res, data_dir)
-    files.append(write_csv(out_dir / "red_dots.csv", {
-        "inv_a": [p["inv_a"] for p in dots], "M_c1": [p["M_c1"] for p in dots],
-        "F_c1": [p["F_c1"] for p in dots], "m_hat": [p["M_c1"] / rod.torque_scale for p in dots],
-        "f_par_hat": [p["F_c1"] / rod.force_scale for p in dots]}))
-    s = res.surface
-    groups = {"surface": {"m_hat": s.m_hat, "f_par": s.f_par, "f_perp": s.f_perp, "chi": s.chi}}
-    for level, (m, f, chi) in res.levels.items():
-        groups[f"level_{level:g}"] = {"m_hat": m, "f_par": f, "chi": chi}
-    for rc in (False, True):
-        tag = "radius_correction" if rc else "constant_friction"
-        groups[f"plane_{tag}"] = {k: np.asarray(v, float) for k, v in res.plane[rc].table().items()}
-        groups[f"sphere_{tag}"] = {k: np.asarray(v, float) for k, v in res.sphere[rc].table().items()}
-    files.append(write_h5(out_dir / "fig7.h5", groups, {"quality": quality}))
+    seconds = timer.seconds
+    return Fig7Data(res, tuple(red_dots(quality, cache)), seconds)
 
+
+def analyse(data: Fig7Data) -> dict:
+    """Anchored thresholds, shoulder, collapse torques and the theory–filament agreement."""
+    res, dots = data.result, data.dots
+    rod = res.rod
     summ = res.summary()
-    a0 = summ["without_radius_correction"]["anchored"]
-    a1 = summ["with_radius_correction"]["anchored"]
     ridge = shoulder(res.levels)
     coll = {rc: collapse_torque(res.plane[rc].table()) for rc in (False, True)}
     # agreement at low m̂: theory (radius correction) on the load-sphere rays vs linear stability
@@ -169,6 +169,40 @@ def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
         th = rod_theory_curve([p["inv_a"] for p in low], radius_correction=True)
         rel = [abs(f - p["F_c1"]) / p["F_c1"] for f, p in zip(th["F"], low) if math.isfinite(f)]
         agree = max(rel) if rel else math.nan
+    return {"anchored": summ["without_radius_correction"]["anchored"],
+            "anchored_radius_correction": summ["with_radius_correction"]["anchored"],
+            "shoulder": ridge, "collapse": coll, "agreement": agree, "agreement_dots": low}
+
+
+def write(out_dir: Path, data: Fig7Data, quality: str) -> list[Path]:
+    """``manifold/`` (as ``flagellum theory manifold``), ``red_dots.csv`` and ``fig7.h5``."""
+    from ..theory.manifold import write_manifold
+
+    res, dots = data.result, data.dots
+    rod = res.rod
+    files = write_manifold(res, out_dir / "manifold")
+    files.append(write_csv(out_dir / "red_dots.csv", {
+        "inv_a": [p["inv_a"] for p in dots], "M_c1": [p["M_c1"] for p in dots],
+        "F_c1": [p["F_c1"] for p in dots], "m_hat": [p["M_c1"] / rod.torque_scale for p in dots],
+        "f_par_hat": [p["F_c1"] / rod.force_scale for p in dots]}, UNITS))
+    s = res.surface
+    groups = {"surface": {"m_hat": s.m_hat, "f_par": s.f_par, "f_perp": s.f_perp, "chi": s.chi}}
+    for level, (m, f, chi) in res.levels.items():
+        groups[f"level_{level:g}"] = {"m_hat": m, "f_par": f, "chi": chi}
+    for rc in (False, True):
+        tag = "radius_correction" if rc else "constant_friction"
+        groups[f"plane_{tag}"] = {k: np.asarray(v, float) for k, v in res.plane[rc].table().items()}
+        groups[f"sphere_{tag}"] = {k: np.asarray(v, float) for k, v in res.sphere[rc].table().items()}
+    files.append(write_h5(out_dir / "fig7.h5", groups, {"quality": quality}))
+    return files
+
+
+def compare(data: Fig7Data, ana: dict, quality: str) -> Comparison:
+    """The comparison table of ``comparison.md``."""
+    rod, s = data.result.rod, data.result.surface
+    a0, a1 = ana["anchored"], ana["anchored_radius_correction"]
+    ridge, coll = ana["shoulder"], ana["collapse"]
+    agree, low = ana["agreement"], ana["agreement_dots"]
     cmp = Comparison("fig7", "critical manifold of the helical rod and the force-torque relation", quality)
     cmp.add("anchored M_c1, rod theory with constant friction [paper: simulation ≈ 1.1]",
             PAPER["M_c1"].value, a0["M"], "pN·µm", "compute_manifold: load-sphere ray at 1/a = 0")
@@ -193,12 +227,29 @@ def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
              f"{rod.torque_scale:.4f} pN·µm (torque) and A_eff/L0² = {rod.force_scale:.5f} pN (force).")
     cmp.note("Red dots: linear stability of the filament with load spheres (Fig. 5), not the paper's "
              "simulated points.")
-    cmp.note("The paper's printed eq. (plane) has the opposite sign of f∥; the code uses the sign that "
-             "reproduces eq. (25) (docs/theory.md).")
-    files.append(cmp.write(out_dir))
+    cmp.note("The paper's printed Eq. (31) has the opposite sign of f∥; the code uses the sign that "
+             "reproduces Eq. (16) (docs/theory.md).")
+    return cmp
+
+
+def headline(data: Fig7Data, ana: dict, quality: str, seconds: float, files: list) -> dict:
+    """The numbers ``reproduce`` returns."""
+    a0, a1, coll = ana["anchored"], ana["anchored_radius_correction"], ana["collapse"]
     return {"M_c1_theory": a0["M"], "M_c1_theory_radius_correction": a1["M"],
             "F_c1_theory": a0["F"], "F_c1_theory_radius_correction": a1["F"],
-            "m_hat_c1": a0["m_hat"], "f_par_hat_c1": a0["f_par"], "shoulder_m_hat": ridge,
+            "m_hat_c1": a0["m_hat"], "f_par_hat_c1": a0["f_par"], "shoulder_m_hat": ana["shoulder"],
             "collapse_torque": coll[False], "collapse_torque_radius_correction": coll[True],
-            "manifold_seconds": t_manifold, "quality": quality, "wall_seconds": timer.seconds,
+            "manifold_seconds": data.manifold_seconds, "quality": quality, "wall_seconds": seconds,
             "files": [str(f) for f in files]}
+
+
+def run(out_dir: Path, quality: str, cache: Cache | None = None) -> dict:
+    """Compute, analyse, plot and write Fig. 7 into ``out_dir``; returns :func:`headline`."""
+    timer = Timer()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    data = compute(quality, cache)
+    ana = analyse(data)
+    files = plot(data.result, data.dots, quality, out_dir)
+    files += write(out_dir, data, quality)
+    files.append(compare(data, ana, quality).write(out_dir))
+    return headline(data, ana, quality, timer.seconds, files)

@@ -1,4 +1,4 @@
-"""Fig. 8 (``fig: compare reorientation rate``, App. C): the reorientation rate λ of the
+"""Fig. 8 (App. C): the reorientation rate λ of the
 anchored filament that pulls (M < 0), for several bending and torsional rigidities A, C and
 for two helix geometries (normal form of peritrichous bacteria, κ0 = 1.3, τ0 = 2.1 /µm;
 monotrichous, κ0 = 2.2, τ0 = 2.5 /µm). The paper: rescaling the torque by A_eff/L0 and the
@@ -9,7 +9,7 @@ Method
 * λ(M) from the linear stability of the aligned state
   (:func:`flagellum.analysis.stability.linear_stability`) at the same rescaled torques
   m̂ = M L0/A_eff for every variant; N = 50 segments, the paper's friction coefficients.
-  The stretching modulus K (a penalty, paper eq. 4) is scaled with A, so that variants that
+  The stretching modulus K (a penalty, paper Eq. (5)) is scaled with A, so that variants that
   differ by a common factor of A, C collapse exactly (λ(2A, 2C, 2K; 2M) = 2λ(A, C, K; M)).
 * Variants at the paper's L = 10 µm (3.93 turns of the normal, 5.30 of the monotrichous
   helix) and monotrichous variants cut to the normal helix' 3.93 turns (L = 7.417 µm).
@@ -17,7 +17,7 @@ Method
   variants (curves interpolated in log–log on a common grid); for contrast with A in place
   of A_eff.
 * Turn scan: λ̂ at m̂ = −1 and −3 against the number of helical turns L/Λ for both
-  geometries (A = C = A0), and the effective-rod prediction of §4
+  geometries (A = C = A0), and the effective-rod prediction of Sec. 4
   (:meth:`flagellum.theory.manifold.HelicalRod.reorientation_rate`).
 * The rescaled buckling threshold m̂_c1 = M_c1 L0/A_eff of each variant
   (:func:`flagellum.analysis.stability.critical_torque`).
@@ -26,6 +26,7 @@ Method
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +34,7 @@ import numpy as np
 from .._plot import pyplot
 from ..io import write_csv
 from ..paper import MONOTRICHOUS_HELIX, NORMAL_HELIX, PAPER
-from .common import Comparison, Timer, pmap, save_figure, write_h5
+from .common import UNITS, Comparison, Timer, pmap, save_figure, write_h5
 
 A0 = PAPER["bend_rigidity"].value
 N_SEGMENTS = 50
@@ -140,10 +141,37 @@ def _turn_variant(geom, turns):
     return (f"{name}, {turns:g} turns", *geom, 1.0, 1.0, turns * turn_length(*geom))
 
 
-def run(out_dir: Path, quality: str, cache=None) -> dict:
-    """Compute, plot and write the figure into ``out_dir`` (``cache`` unused: nothing shared)."""
-    timer = Timer()
-    out_dir.mkdir(parents=True, exist_ok=True)
+@dataclass(frozen=True)
+class Fig8Data:
+    """What Fig. 8 is drawn from: the variants, their scales and the results of all jobs."""
+
+    quality: str
+    variants: tuple          #: :data:`VARIANTS` of the quality
+    scales: dict             #: :func:`scales` by variant label
+    results: tuple[dict, ...]  #: :func:`_job` results: λ per variant, thresholds, turn scan
+    rod_line: tuple          #: (m̂, λ̂) of the effective rod of the normal helix, panel (b)
+
+    @property
+    def lam(self) -> list[dict]:
+        """λ of the variants (not the turn scan)."""
+        return [r for r in self.results if r["kind"] == "lambda" and not r.get("turn_scan")]
+
+    @property
+    def scan(self) -> list[dict]:
+        """λ and the effective rod's rate of the turn scan."""
+        return [r for r in self.results if r.get("turn_scan")]
+
+    @property
+    def crit(self) -> dict:
+        """The buckling threshold of each variant, by label."""
+        return {r["variant"][0]: r for r in self.results if r["kind"] == "critical"}
+
+
+def compute(quality: str, cache=None) -> Fig8Data:
+    """λ(m̂) and M_c1 of every variant and the turn scan by linear stability, in one process
+    pool (nothing shared: ``cache`` is unused)."""
+    from ..theory.manifold import HelicalRod
+
     variants = VARIANTS[quality]
     sc = {v[0]: scales(variant_params(v)) for v in variants}
     jobs = []
@@ -162,16 +190,21 @@ def run(out_dir: Path, quality: str, cache=None) -> dict:
                              "turn_scan": True, "cost": 0.3})
                 jobs.append({"kind": "theory", "variant": v, "m_hat": mh, "turn_scan": True, "cost": 0.0})
     res = pmap(_job, jobs)
-    lam = [r for r in res if r["kind"] == "lambda" and not r.get("turn_scan")]
-    scan = [r for r in res if r.get("turn_scan")]
-    crit = {r["variant"][0]: r for r in res if r["kind"] == "critical"}
+    # effective-rod prediction on panel (b): the normal helix' rod (depends on geometry only
+    # through f̂∥/m̂, 8.7 normal vs 9.9 monotrichous)
+    rod = HelicalRod.from_params(variant_params(variants[0]))
+    mh_t = np.linspace(min(M_HAT[quality]), -0.25, 25)
+    rod_line = (mh_t, np.array([rod.reorientation_rate(m) / rod.master_rate_scale for m in mh_t]))
+    return Fig8Data(quality, variants, sc, tuple(res), rod_line)
 
-    plt = pyplot()
-    fig, axs = plt.subplots(2, 2, figsize=(13, 10))
-    axs = axs.ravel()
+
+def analyse(data: Fig8Data) -> dict:
+    """The tables (``reorientation``, ``turn_scan``, ``scales``), the rescaled curves and the
+    spreads of the collapse."""
+    variants, sc, lam, scan, crit = data.variants, data.scales, data.lam, data.scan, data.crit
     rows = {k: [] for k in ("variant", "kappa0", "tau0", "A", "C", "L", "turns", "torque", "lambda",
                             "m_hat", "lambda_hat", "error")}
-    curves, curves_A, pos_hat = {}, {}, {}
+    curves, curves_A, pos_hat, series = {}, {}, {}, {}
     for v in variants:
         s = sc[v[0]]
         pts = sorted((r for r in lam if r["variant"] == v and "error" not in r), key=lambda r: r["m_hat"])
@@ -186,33 +219,11 @@ def run(out_dir: Path, quality: str, cache=None) -> dict:
             continue
         M = np.array([r["torque"] for r in pts])
         L = np.array([r["lambda"] for r in pts])
-        style = ("o-" if v[1] == NORMAL[0] else "s--") if v[5] == 10.0 else "^:"
         neg = M < 0
-        line, = axs[0].plot(M[neg], L[neg], style, ms=4, label=v[0])
-        axs[1].plot(M[neg] / s["torque"], L[neg] / s["rate"], style, ms=4, label=v[0], color=line.get_color())
-        axs[2].plot(M / s["torque"], L / s["rate"], style, ms=4, label=v[0], color=line.get_color())
+        series[v[0]] = (M, L)
         curves[v[0]] = (M[neg] / s["torque"], L[neg] / s["rate"])
         curves_A[v[0]] = (M[neg] / s["torque_A"], L[neg] / s["rate_A"])
         pos_hat[v[0]] = {round(r["m_hat"], 6): r["lambda"] / s["rate"] for r in pts if r["m_hat"] > 0}
-    # effective-rod prediction on panel (b): the normal helix' rod (depends on geometry only
-    # through f̂∥/m̂, 8.7 normal vs 9.9 monotrichous)
-    from ..theory.manifold import HelicalRod
-
-    rod = HelicalRod.from_params(variant_params(variants[0]))
-    mh_t = np.linspace(min(M_HAT[quality]), -0.25, 25)
-    axs[1].plot(mh_t, [rod.reorientation_rate(m) / rod.master_rate_scale for m in mh_t], "k-", lw=2,
-                alpha=0.5, label="effective rod (§4), normal helix")
-    for a in axs[:3]:
-        a.axhline(0, color="0.6", lw=0.7)
-        a.legend(fontsize=7)
-    axs[0].set(xlabel="motor torque M [pN·µm]", ylabel="reorientation rate λ [1/s]",
-               title="(a) reorientation rate of the pulling filament")
-    axs[1].set(xlabel=r"$M L_0 / A_{eff}$", ylabel=r"$\lambda \, L_0^3 A_\perp / (3 A_{eff})$",
-               title=f"(b) rescaled: master curve? (quality {quality})")
-    axs[2].axvline(0, color="0.6", lw=0.7)
-    axs[2].set(xlabel=r"$M L_0 / A_{eff}$", ylabel=r"$\lambda \, L_0^3 A_\perp / (3 A_{eff})$",
-               title="(c) rescaled, both signs (M > 0: relaxation, buckling)")
-
     # turn scan
     tscan = {k: [] for k in ("geometry", "turns", "L", "m_hat", "lambda_hat", "lambda_hat_rod", "error")}
     by = {}
@@ -228,21 +239,6 @@ def run(out_dir: Path, quality: str, cache=None) -> dict:
                        ("error", r.get("error", "") or th.get("error", ""))):
             tscan[k].append(val)
         by[(geom, r["m_hat"], turns)] = (lh, lr)
-    for geom, style in (("normal", "o-"), ("monotrichous", "s--")):
-        for mh, color in zip(M_HAT_TURNS, ("C0", "C3")):
-            keys = sorted(k for k in by if k[0] == geom and k[1] == mh)
-            t = np.array([k[2] for k in keys])
-            axs[3].plot(t, [by[k][0] for k in keys], style, color=color, ms=4,
-                        label=f"{geom}, m̂ = {mh:g}")
-            axs[3].plot(t, [by[k][1] for k in keys], ":", color=color, lw=1,
-                        label=f"effective rod, {geom}, m̂ = {mh:g}" if geom == "normal" else None)
-    axs[3].axvline(TURNS_PAPER, color="0.6", lw=0.7)
-    axs[3].set(yscale="log", xlabel="number of helical turns L/Λ", ylabel=r"$\hat\lambda$",
-               title="(d) λ̂ depends on where the helix ends (A = C = A0, N = 50)")
-    axs[3].legend(fontsize=7)
-    files = save_figure(fig, out_dir, "fig8")
-    files.append(write_csv(out_dir / "reorientation.csv", rows))
-    files.append(write_csv(out_dir / "turn_scan.csv", tscan))
     crow = {k: [] for k in ("variant", "L", "turns", "L0", "A_eff", "A_perp", "torque_scale", "rate_scale",
                             "M_c1", "m_hat_c1", "error")}
     for v in variants:
@@ -253,12 +249,6 @@ def run(out_dir: Path, quality: str, cache=None) -> dict:
                        ("M_c1", c.get("M_c1", math.nan)), ("m_hat_c1", c.get("M_c1", math.nan) / s["torque"]),
                        ("error", c.get("error", ""))):
             crow[k].append(val)
-    files.append(write_csv(out_dir / "scales.csv", crow))
-    obj = ("variant", "error", "geometry")
-    files.append(write_h5(out_dir / "fig8.h5", {
-        name: {k: np.asarray(v, object if k in obj else float) for k, v in tab.items()}
-        for name, tab in (("reorientation", rows), ("scales", crow), ("turn_scan", tscan))},
-        {"quality": quality}))
 
     def pick(pred, table=curves):
         return [table[v[0]] for v in variants if v[0] in table and pred(v)]
@@ -294,30 +284,102 @@ def run(out_dir: Path, quality: str, cache=None) -> dict:
     mhc = [x for x in crow["m_hat_c1"] if math.isfinite(x)]
     normal = sc[variants[0][0]]
     mono = next((sc[v[0]] for v in variants if v[1:3] == MONO and v[5] == 10.0), None)
+    return {"rows": rows, "series": series, "turn_scan": tscan, "by_turns": by,
+            "scales": crow, "spread": sp, "spread_A": sp_A, "spread_geometry": sp_geom,
+            "spread_matched": sp_matched, "spread_matched_AC": sp_matched_AC, "spread_scaling": sp_scale,
+            "spread_twist": sp_C, "spread_pushing": sp_pos, "n_paper_L": len(pick(paper_L)),
+            "turn_oscillation": osc, "geometry_difference": max(geo_diff) if geo_diff else math.nan,
+            "rod_mean": float(np.mean(rod_mean)), "lambda_hat_turn_scan_mean":
+            float(np.mean(x_all)) if len(x_all) else math.nan, "m_hat_c1": mhc, "normal": normal,
+            "mono": mono}
 
+
+def plot(data: Fig8Data, ana: dict, out_dir: Path):
+    quality, variants, sc = data.quality, data.variants, data.scales
+    plt = pyplot()
+    fig, axs = plt.subplots(2, 2, figsize=(13, 10))
+    axs = axs.ravel()
+    for v in variants:
+        if v[0] not in ana["series"]:
+            continue
+        s = sc[v[0]]
+        M, L = ana["series"][v[0]]
+        style = ("o-" if v[1] == NORMAL[0] else "s--") if v[5] == 10.0 else "^:"
+        neg = M < 0
+        line, = axs[0].plot(M[neg], L[neg], style, ms=4, label=v[0])
+        axs[1].plot(M[neg] / s["torque"], L[neg] / s["rate"], style, ms=4, label=v[0], color=line.get_color())
+        axs[2].plot(M / s["torque"], L / s["rate"], style, ms=4, label=v[0], color=line.get_color())
+    mh_t, rate_t = data.rod_line
+    axs[1].plot(mh_t, rate_t, "k-", lw=2, alpha=0.5, label="effective rod (Sec. 4), normal helix")
+    for a in axs[:3]:
+        a.axhline(0, color="0.6", lw=0.7)
+        a.legend(fontsize=7)
+    axs[0].set(xlabel="motor torque M [pN·µm]", ylabel="reorientation rate λ [1/s]",
+               title="(a) reorientation rate of the pulling filament")
+    axs[1].set(xlabel=r"$M L_0 / A_{eff}$", ylabel=r"$\lambda \, L_0^3 A_\perp / (3 A_{eff})$",
+               title=f"(b) rescaled: master curve? (quality {quality})")
+    axs[2].axvline(0, color="0.6", lw=0.7)
+    axs[2].set(xlabel=r"$M L_0 / A_{eff}$", ylabel=r"$\lambda \, L_0^3 A_\perp / (3 A_{eff})$",
+               title="(c) rescaled, both signs (M > 0: relaxation, buckling)")
+
+    # turn scan
+    by = ana["by_turns"]
+    for geom, style in (("normal", "o-"), ("monotrichous", "s--")):
+        for mh, color in zip(M_HAT_TURNS, ("C0", "C3")):
+            keys = sorted(k for k in by if k[0] == geom and k[1] == mh)
+            t = np.array([k[2] for k in keys])
+            axs[3].plot(t, [by[k][0] for k in keys], style, color=color, ms=4,
+                        label=f"{geom}, m̂ = {mh:g}")
+            axs[3].plot(t, [by[k][1] for k in keys], ":", color=color, lw=1,
+                        label=f"effective rod, {geom}, m̂ = {mh:g}" if geom == "normal" else None)
+    axs[3].axvline(TURNS_PAPER, color="0.6", lw=0.7)
+    axs[3].set(yscale="log", xlabel="number of helical turns L/Λ", ylabel=r"$\hat\lambda$",
+               title="(d) λ̂ depends on where the helix ends (A = C = A0, N = 50)")
+    axs[3].legend(fontsize=7)
+    return save_figure(fig, out_dir, "fig8")
+
+
+def write(out_dir: Path, ana: dict, quality: str) -> list[Path]:
+    """``reorientation.csv``, ``turn_scan.csv``, ``scales.csv`` and ``fig8.h5``."""
+    rows, tscan, crow = ana["rows"], ana["turn_scan"], ana["scales"]
+    files = [write_csv(out_dir / "reorientation.csv", rows, UNITS),
+             write_csv(out_dir / "turn_scan.csv", tscan, UNITS),
+             write_csv(out_dir / "scales.csv", crow, UNITS)]
+    obj = ("variant", "error", "geometry")
+    files.append(write_h5(out_dir / "fig8.h5", {
+        name: {k: np.asarray(v, object if k in obj else float) for k, v in tab.items()}
+        for name, tab in (("reorientation", rows), ("scales", crow), ("turn_scan", tscan))},
+        {"quality": quality}))
+    return files
+
+
+def compare(data: Fig8Data, ana: dict, quality: str) -> Comparison:
+    """The comparison table of ``comparison.md``."""
+    osc, normal, mono, mhc = ana["turn_oscillation"], ana["normal"], ana["mono"], ana["m_hat_c1"]
     cmp = Comparison("fig8", "master curve of the reorientation rate (App. C)", quality)
     cmp.add("spread of the rescaled rates λ̂ at equal M L0/A_eff < 0, L = 10 µm [paper: one master curve]",
-            0.0, sp, "", f"largest (max − min)/mean over {len(pick(paper_L))} variants, linear stability")
-    cmp.add("same spread with A instead of A_eff in both scales (contrast)", "larger", sp_A, "",
+            0.0, ana["spread"], "", f"largest (max − min)/mean over {ana['n_paper_L']} variants, "
+            "linear stability")
+    cmp.add("same spread with A instead of A_eff in both scales (contrast)", "larger", ana["spread_A"], "",
             "log–log interpolation on a common grid")
-    cmp.add("spread, A = C only, normal vs monotrichous at L = 10 µm (3.93 vs 5.30 turns)", 0.0, sp_geom, "",
-            "geometry alone")
-    cmp.add(f"spread, equal number of turns ({TURNS_PAPER:.2f}), all A, C", 0.0, sp_matched, "",
+    cmp.add("spread, A = C only, normal vs monotrichous at L = 10 µm (3.93 vs 5.30 turns)", 0.0,
+            ana["spread_geometry"], "", "geometry alone")
+    cmp.add(f"spread, equal number of turns ({TURNS_PAPER:.2f}), all A, C", 0.0, ana["spread_matched"], "",
             f"monotrichous cut to L = {L_MONO_MATCHED:.3f} µm")
-    cmp.add(f"spread, equal number of turns ({TURNS_PAPER:.2f}), A = C only", 0.0, sp_matched_AC, "",
+    cmp.add(f"spread, equal number of turns ({TURNS_PAPER:.2f}), A = C only", 0.0, ana["spread_matched_AC"], "",
             "geometry at equal end phase")
-    cmp.add("spread, normal helix, A = C scaled by 1/2, 1, 2 (K ∝ A)", 0.0, sp_scale, "",
+    cmp.add("spread, normal helix, A = C scaled by 1/2, 1, 2 (K ∝ A)", 0.0, ana["spread_scaling"], "",
             "exact by dimensional analysis: checks the solver")
-    cmp.add("spread, normal helix, C = A vs C = 2A", 0.0, sp_C, "", "A_eff carries C")
+    cmp.add("spread, normal helix, C = A vs C = 2A", 0.0, ana["spread_twist"], "", "A_eff carries C")
     cmp.add("oscillation (max − min)/mean of λ̂(m̂ = −1) over the turn scan, normal / monotrichous", 0.0,
             f"{osc['normal']:.3g} / {osc['monotrichous']:.3g}", "",
             f"L/Λ = {min(TURNS[quality]):g} … {max(TURNS[quality]):g}")
     cmp.add("largest normal–monotrichous difference of λ̂ at equal turns (m̂ = −1, −3)", 0.0,
-            max(geo_diff) if geo_diff else math.nan, "", "turn scan")
-    cmp.add(f"λ̂(m̂ = −1), mean over the turn scan [effective rod of §4: {np.mean(rod_mean):.4f}]",
-            "one value", float(np.mean(x_all)) if len(x_all) else math.nan, "",
+            ana["geometry_difference"], "", "turn scan")
+    cmp.add(f"λ̂(m̂ = −1), mean over the turn scan [effective rod of Sec. 4: {ana['rod_mean']:.4f}]",
+            "one value", ana["lambda_hat_turn_scan_mean"], "",
             "linear stability; rod: tilt-mode rate on the anchored line")
-    cmp.add("spread of λ̂ at equal M L0/A_eff > 0 (pushing, up to buckling)", 0.0, sp_pos, "",
+    cmp.add("spread of λ̂ at equal M L0/A_eff > 0 (pushing, up to buckling)", 0.0, ana["spread_pushing"], "",
             "largest (max − min) at one m̂ over the largest |λ̂|, linear stability")
     if len(mhc) > 1:
         cmp.add("spread of the rescaled buckling torque M_c1 L0/A_eff", 0.0,
@@ -325,23 +387,42 @@ def run(out_dir: Path, quality: str, cache=None) -> dict:
     if mono is not None:
         cmp.add("sin α of the monotrichous helix", PAPER["sin_alpha_mono"].value,
                 mono["L0"] / 10.0, "", "L0/L")
-    cmp.note("Rate scale A_eff/(L0³A⊥/3) with A⊥ of eq. (A.5) for the whole filament; torque scale "
+    cmp.note("Rate scale A_eff/(L0³A⊥/3) with A⊥ of Eq. (38a) for the whole filament; torque scale "
              f"A_eff/L0 (normal helix, A = C = A0: {normal['torque']:.4f} pN·µm and {normal['rate']:.4f} /s).")
     cmp.note("The paper gives no numbers for this figure; the comparison is the collapse itself.")
-    cmp.note("A_eff of eq. (C.4) agrees with a direct measurement on the discrete rod (end moments) to "
+    cmp.note("A_eff of Eq. (17) agrees with a direct measurement on the discrete rod (end moments) to "
              "≤ 1 % at h = 0.2 µm (flagellum.theory.effective_rigidity, tests/test_fig8.py).")
     cmp.note("The rescaled rate oscillates with the number of helical turns (panel d): at equal turns the "
              "two geometries agree; at L = 10 µm the monotrichous helix (5.30 turns) sits near a minimum.")
-    for r in res:
+    for r in data.results:
         if "error" in r:
             cmp.note(f"{r['variant'][0]}, {r['kind']} at M = {r.get('torque', r.get('guess', math.nan)):.3g}: "
                      f"{r['error']}")
-    files.append(cmp.write(out_dir))
-    return {"collapse_spread": sp, "collapse_spread_with_A": sp_A, "collapse_spread_pushing": sp_pos,
-            "collapse_spread_geometry": sp_geom, "collapse_spread_equal_turns": sp_matched,
-            "collapse_spread_equal_turns_A_eq_C": sp_matched_AC, "collapse_spread_scaling": sp_scale,
-            "collapse_spread_twist": sp_C, "turn_oscillation": osc,
-            "geometry_difference_equal_turns": max(geo_diff) if geo_diff else math.nan,
-            "m_hat_c1": dict(zip(crow["variant"], crow["m_hat_c1"])),
-            "variants": [v[0] for v in variants], "quality": quality, "wall_seconds": timer.seconds,
+    return cmp
+
+
+def headline(data: Fig8Data, ana: dict, quality: str, seconds: float, files: list) -> dict:
+    """The numbers ``reproduce`` returns."""
+    return {"collapse_spread": ana["spread"], "collapse_spread_with_A": ana["spread_A"],
+            "collapse_spread_pushing": ana["spread_pushing"],
+            "collapse_spread_geometry": ana["spread_geometry"],
+            "collapse_spread_equal_turns": ana["spread_matched"],
+            "collapse_spread_equal_turns_A_eq_C": ana["spread_matched_AC"],
+            "collapse_spread_scaling": ana["spread_scaling"], "collapse_spread_twist": ana["spread_twist"],
+            "turn_oscillation": ana["turn_oscillation"],
+            "geometry_difference_equal_turns": ana["geometry_difference"],
+            "m_hat_c1": dict(zip(ana["scales"]["variant"], ana["scales"]["m_hat_c1"])),
+            "variants": [v[0] for v in data.variants], "quality": quality, "wall_seconds": seconds,
             "files": [str(f) for f in files]}
+
+
+def run(out_dir: Path, quality: str, cache=None) -> dict:
+    """Compute, analyse, plot and write Fig. 8 into ``out_dir``; returns :func:`headline`."""
+    timer = Timer()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    data = compute(quality, cache)
+    ana = analyse(data)
+    files = plot(data, ana, out_dir)
+    files += write(out_dir, ana, quality)
+    files.append(compare(data, ana, quality).write(out_dir))
+    return headline(data, ana, quality, timer.seconds, files)

@@ -1,4 +1,4 @@
-"""Numba kernels of the discrete Kirchhoff rod (paper §2.1–2.3).
+"""Numba kernels of the discrete Kirchhoff rod (paper Sec. 2.1–2.3).
 
 State layout (bead by bead, so that the Jacobian is banded)::
 
@@ -237,7 +237,7 @@ def _add_correction(DM, DR, V, n, width):
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
-    """Overdamped dynamics (paper Eqs. (5)–(6) and the hook balance of Sec. 2.3).
+    """Overdamped dynamics (paper Eqs. (6)–(7) and the hook balance Eq. (12), Sec. 2.3).
 
     Lab-frame velocities from [γ∥ tt + γ⊥(1 − tt)] w v = f (w = h, end beads h/2, t the
     averaged tangent; with iprm[I_HYDRO] ≠ HYDRO_LOCAL plus the frozen nonlocal correction

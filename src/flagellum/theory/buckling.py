@@ -1,19 +1,19 @@
-"""Linear buckling theory of a helical rod (paper §4, eqs. lin buckling and boundary conditions).
+"""Linear buckling theory of a helical rod (paper Sec. 4.1, Eqs. (29)–(30)).
 
-The rod of length L0 lies along z; its small deflection (X, Y) obeys eq. (lin buckling) ::
+The rod of length L0 lies along z; its small deflection (X, Y) obeys Eq. (29) ::
 
     0 = −Y'''' + (m̂(1−z) X'')' − f̂∥(1−z) Y'' − f̂⊥ Y' + χ̂ X,
     0 =  X'''' + (m̂(1−z) Y'')' + f̂∥(1−z) X'' + f̂⊥ X' + χ̂ Y.
 
 Rotation about z is a symmetry, so with the complex deflection V = X − iY both equations are
-one complex fourth-order ODE (the second plus i times the first) ::
+one complex fourth-order ODE, the rod equation (the second plus i times the first) ::
 
-    V'''' + i (M(z) V'')' + N(z) V'' + f̂⊥ V' + i χ̂ V = 0,                             (1)
+    V'''' + i (M(z) V'')' + N(z) V'' + f̂⊥ V' + i χ̂ V = 0,
 
 with the axial torque M(z) = m̂(1−z) and compressive force N(z) = f̂∥(1−z) of the paper
 (``torque_profile`` / ``force_profile`` = "linear"), or constant M = m̂, N = f̂∥ for loads
 applied at the ends ("uniform": Greenhill's and Euler's problems). The boundary conditions
-of eq. (boundary conditions) generalise to
+of Eq. (30) generalise to
 
 * base z = 0: V = 0 and "hinged" V'' + iM V' = 0 (no bending moment, the torque stays along
   z) or "clamped" V' = 0;
@@ -29,12 +29,12 @@ whose determinant D = det S vanishes exactly when a non-trivial solution exists.
 method with the exact Jacobian from the parameter sensitivities. The ODE has coefficients
 linear in z, so each step is a Taylor series to machine precision (recurrence below).
 
-**Collocation** (independent check and global search). A Chebyshev collocation of (1) is an
-affine matrix pencil in every parameter, K(p) = K₀ + Σ pₖ Kₖ, so for fixed other parameters
-the critical values of one parameter are generalised eigenvalues. With χ̂ as eigenvalue the
-neutral modes are the real eigenvalues; an eigenvalue with Im χ̂ < 0 is an unstable mode of
-the straight rod (its deflection grows as exp(−Im χ̂ · t), t in units of a⊥L0⁴/A_eff),
-which locates the first instability along any scan.
+**Collocation** (independent check and global search). A Chebyshev collocation of the rod
+equation is an affine matrix pencil in every parameter, K(p) = K₀ + Σ pₖ Kₖ, so for fixed
+other parameters the critical values of one parameter are generalised eigenvalues. With χ̂
+as eigenvalue the neutral modes are the real eigenvalues; an eigenvalue with Im χ̂ < 0 is an
+unstable mode of the straight rod (its deflection grows as exp(−Im χ̂ · t), t in units of
+a⊥L0⁴/A_eff), which locates the first instability along any scan.
 
 **Trivial solution.** With a hinged base, free top, m̂ = 0 and f̂⊥ = χ̂ = 0 the rigid tilt
 V = c z solves the problem for every f̂∥ (the torque-free rod can pivot freely about its
@@ -75,10 +75,11 @@ class NoConvergenceError(FlagellumError, ArithmeticError):
 
 @dataclass(frozen=True)
 class BucklingProblem:
-    """Parameters and boundary conditions of eq. (1); all loads dimensionless (hats).
+    """Parameters and boundary conditions of the rod equation (Eq. (29) for V = X − iY); all
+    loads dimensionless (hats).
 
     ``m_hat`` = m L0²/A_eff, ``f_par`` = f∥ L0³/A_eff, ``f_perp`` = f⊥ L0³/A_eff and
-    ``chi`` = χ a⊥ L0⁴/A_eff (paper §4). With a "uniform" profile ``m_hat`` = M L0/A and
+    ``chi`` = χ a⊥ L0⁴/A_eff (paper Sec. 4.1). With a "uniform" profile ``m_hat`` = M L0/A and
     ``f_par`` = F L0²/A are the end torque and end force.
     """
 
@@ -125,7 +126,7 @@ class BucklingProblem:
                 and abs(self.f_perp) <= tol and abs(self.chi) <= tol and abs(n1) <= tol)
 
     def scale(self) -> float:
-        """Largest wavenumber of eq. (1): sets step size and collocation resolution."""
+        """Largest wavenumber of the rod equation: sets step size and collocation resolution."""
         return (1.0 + abs(self.chi) ** 0.25 + abs(self.f_perp) ** (1 / 3)
                 + math.sqrt(abs(self.f_par)) + abs(self.m_hat))
 
@@ -136,7 +137,8 @@ class BucklingProblem:
 
 @numba.njit(cache=True)
 def _coefficients(z, p, flags):
-    """Last row r(z) of the companion matrix of (1), its z-slope s, and both per parameter.
+    """Last row r(z) of the companion matrix of the rod equation, its z-slope s, and both per
+    parameter.
 
     V'''' = r·(V, V', V'', V''') with r = (−iχ, −f⊥, −i m M' − f∥ N, −i m M).
     """
@@ -306,7 +308,7 @@ class Mode:
 
 @dataclass(frozen=True)
 class CriticalPoint:
-    """A critical parameter set (non-trivial solution of eq. (1)) and how it was found."""
+    """A critical parameter set (non-trivial solution of the rod equation) and how it was found."""
 
     problem: BucklingProblem
     unknowns: tuple
@@ -430,7 +432,7 @@ def _named_map(problem: BucklingProblem, unknowns):
 
 def solve(problem: BucklingProblem, unknowns=("f_perp", "chi"), guess=None, *,
           method: str = "shooting", collocation_n: int | None = None) -> CriticalPoint:
-    """Critical values of one or two ``unknowns`` among (m̂, f̂∥, f̂⊥, χ̂) of eq. (1).
+    """Critical values of one or two ``unknowns`` among (m̂, f̂∥, f̂⊥, χ̂) of Eq. (29).
 
     ``method="shooting"``: Newton's method on D = det S from ``guess`` (values of the
     unknowns); without a guess the global search of :func:`find_critical` is used.
@@ -488,7 +490,8 @@ def _chebyshev(n: int):
 
 
 def collocation_pencil(problem: BucklingProblem, n: int):
-    """Matrices (K0, [K_m, K_fpar, K_fperp, K_chi]) of the collocated eq. (1) with its BCs.
+    """Matrices (K0, [K_m, K_fpar, K_fperp, K_chi]) of the collocated Eq. (29) with
+    its boundary conditions.
 
     Rows 0, 1 (z = 0) and n−1, n (z = 1) are replaced by the boundary conditions. The
     matrices depend only on the boundary conditions and profiles (cached; do not modify).

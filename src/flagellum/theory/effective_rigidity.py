@@ -1,9 +1,10 @@
-"""Effective bending rigidity of the helix (paper App. C, eq. C.4), checked mechanically.
+"""Effective bending rigidity of the helix (paper App. C, Eq. (47) = Eq. (17)), checked
+mechanically.
 
 App. C applies a constant moment M ⟂ to the helix axis, writes Kirchhoff's energy in terms
-of the moment, f_cl = ½ (M₁²/A + M₂²/A + M₃²/C) (eq. energy - torque), integrates it over the
+of the moment, f_cl = ½ (M₁²/A + M₂²/A + M₃²/C) (Eq. (45)), integrates it over the
 undeformed helix and compares with a rod of length L0 = L sin α, 𝓕 = M² L0/(2 A_eff)
-(eq. A_eff rod)::
+(Eq. (44))::
 
     1/A_eff = (1 + sin²α + (A/C) cos²α) / (2 A sin α).
 
@@ -30,16 +31,16 @@ FD_STEP = 1e-4
 
 
 def formula(params: Params | None = None) -> float:
-    """A_eff of eq. (C.4) [pN·µm²] for the filament of ``params``."""
+    """A_eff of Eq. (17) [pN·µm²] for the filament of ``params``."""
     f = (params or Params()).filament
     return effective_bending_rigidity(Helix.from_filament(f), f.bend_rigidity, f.twist_rigidity)
 
 
 def continuum_compliance(params: Params | None = None, direction=(1.0, 0.0, 0.0),
                          n: int = 20001) -> float:
-    """∫₀ᴸ Σᵢ (ê·eᵢ)²/Aᵢ ds [µm/(pN·µm²)] over the helix of eq. (A.4) (Frenet frame, axis z).
+    """∫₀ᴸ Σᵢ (ê·eᵢ)²/Aᵢ ds [µm/(pN·µm²)] over the helix of Eq. (37) (Frenet frame, axis z).
 
-    2𝓕/M² for a moment M ê; equals L0/A_eff of eq. (C.4) up to the O(sin 2kL/2kL) term.
+    2𝓕/M² for a moment M ê; equals L0/A_eff of Eq. (47) up to the O(sin 2kL/2kL) term of Eq. (46).
     """
     f = (params or Params()).filament
     helix = Helix.from_filament(f)
@@ -107,7 +108,7 @@ def bending_compliance(params: Params | None = None, directions=((1.0, 0, 0), (0
 
 def measured_bending_rigidity(params: Params | None = None) -> float:
     """A_eff measured on the discrete rod: 2 L0 / (c_x + c_y), c the compliances of end
-    moments along two orthogonal directions ⟂ to the axis (L0 = L sin α, as in eq. C.4)."""
+    moments along two orthogonal directions ⟂ to the axis (L0 = L sin α, as in Eq. (47))."""
     params = params or Params()
     c = bending_compliance(params)
     return 2 * Helix.from_filament(params.filament).axial_length / float(np.sum(c))

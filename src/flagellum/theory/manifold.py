@@ -1,24 +1,24 @@
-"""Critical manifold of the helical rod and the critical torque of the filament (paper §4.2).
+"""Critical manifold of the helical rod and the critical torque of the filament (paper Sec. 4.2).
 
 The helical filament is replaced by a rod of length L0 = L sin α with the effective bending
 rigidity A_eff (App. C) and the friction coefficients per length a⊥, a∥, b∥, c∥ (App. A,
-eq. frict coeffi BC). A straight rod moving with velocity v towards its base (pushing the
+Eq. (39)). A straight rod moving with velocity v towards its base (pushing the
 load) and rotating with ω feels (sign convention below) ::
 
     f∥ = −(a∥ v + c∥ ω)   (compressive thrust density),   m = c∥ v + b∥ ω,   f⊥ = a⊥ v,
 
-so eliminating v and ω gives the plane of eq. (plane) ::
+so eliminating v and ω gives the plane of Eq. (31) ::
 
     f⊥ = −a⊥ (b∥ f∥ + c∥ m)/(a∥ b∥ − c∥²),   in hats  f̂⊥ = −a⊥ (b∥ f̂∥ + c∥ L0 m̂)/(a∥ b∥ − c∥²).
 
 Sign convention: c∥ < 0 for a right-handed helix (App. A) and f∥ > 0 compresses the rod, as
-in eq. (lin buckling). These are the relations that give the paper's eq. (25) for the
-load sphere; the printed eq. (plane) has f∥ with the opposite sign (the force density on the
+in Eq. (29). These are the relations that give the paper's Eq. (16) for the
+load sphere; the printed Eq. (31) has f∥ with the opposite sign (the force density on the
 rod, negative when it compresses), which would put the anchored helix (v = 0) off f⊥ = 0.
 
 A load sphere of radius a (drag ζ = 6πηa) fixes v = F/ζ with F = f∥ L0 the thrust, so for
 each 1/a the critical point lies on a ray through the origin of (m̂, f̂∥, f̂⊥). The radius
-correction of §4.2 replaces R⁻¹ by R⁻¹ + M/(2A cos α) at fixed pitch angle, which scales
+correction of Sec. 4.2 replaces R⁻¹ by R⁻¹ + M/(2A cos α) at fixed pitch angle, which scales
 b∥ ∝ R² and c∥ ∝ R and makes the plane torque dependent.
 """
 
@@ -45,7 +45,7 @@ LEVELS = tuple(range(0, 301, 25))
 
 @dataclass(frozen=True)
 class HelicalRod:
-    """The helical filament as an effective rod (paper §4.1, App. A and C). Units µm, pN, s."""
+    """The helical filament as an effective rod (paper Sec. 4.1, App. A and C). Units µm, pN, s."""
 
     L0: float            #: axial length L sin α
     A_eff: float         #: effective bending rigidity (App. C)
@@ -53,7 +53,7 @@ class HelicalRod:
     pitch_angle: float
     radius: float
     chirality: int
-    a_perp: float        #: friction coefficients per axial length (eq. frict coeffi BC)
+    a_perp: float        #: friction coefficients per axial length (Eq. (39))
     a_par: float
     b_par: float
     c_par: float
@@ -72,7 +72,7 @@ class HelicalRod:
                    co["A_perp"] / L0, co["A_par"] / L0, co["B_par"] / L0, co["C_par"] / L0,
                    params.fluid.viscosity)
 
-    # scales of the hats (§4.1)
+    # scales of the hats (Sec. 4.1)
     @property
     def torque_scale(self) -> float:
         """M = m̂ · A_eff/L0 [pN·µm]."""
@@ -91,7 +91,7 @@ class HelicalRod:
     @property
     def master_rate_scale(self) -> float:
         """Rate scale of Fig. 8 (App. C): A_eff/(L0³A⊥/3) = 3 A_eff/(a⊥L0⁴) [1/s], with
-        A⊥ = a⊥L0 the whole-filament coefficient of eq. (frict coeffiI)."""
+        A⊥ = a⊥L0 the whole-filament coefficient of Eq. (38a)."""
         return 3 * self.rate_scale
 
     def reorientation_rate(self, m_hat: float, radius_correction: bool = False) -> float:
@@ -124,7 +124,7 @@ class HelicalRod:
         return self.a_par, self.b_par * rho**2, self.c_par * rho
 
     def plane(self, m_hat: float, f_par: float, radius_correction: bool = False) -> float:
-        """f̂⊥ on the plane of eq. (plane) (compressive f̂∥, see module docstring)."""
+        """f̂⊥ on the plane of Eq. (31) (compressive f̂∥, see module docstring)."""
         a, b, c = self.coefficients(m_hat * self.torque_scale, radius_correction)
         return -self.a_perp * (b * f_par + c * self.L0 * m_hat) / (a * b - c * c)
 
@@ -239,7 +239,7 @@ def level_curves(levels=LEVELS, m_values=np.linspace(0, 20, 41), *, base: str = 
 
 
 # --------------------------------------------------------------------------------------------
-# The filament: plane of eq. (plane), load sphere, radius correction
+# The filament: plane of Eq. (31), load sphere, radius correction
 # --------------------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
@@ -265,7 +265,7 @@ class CriticalCurve:
 
 def plane_intersection(rod: HelicalRod, m_values, *, radius_correction: bool = False,
                        base: str = "hinged") -> CriticalCurve:
-    """Critical f̂∥(m̂) where the plane of eq. (plane) meets the manifold (Fig. 7c, d).
+    """Critical f̂∥(m̂) where the plane of Eq. (31) meets the manifold (Fig. 7c, d).
 
     For each m̂ the thrust runs along the plane from the free swimmer (f̂∥ = 0, no load) to
     the anchored helix (f̂⊥ = 0, v = 0), i.e. over all load spheres, and the first
@@ -293,7 +293,7 @@ def plane_intersection(rod: HelicalRod, m_values, *, radius_correction: bool = F
 
 def load_sphere_curve(rod: HelicalRod, inv_a_values, *, radius_correction: bool = False,
                       base: str = "hinged", m_stop: float = 80.0) -> CriticalCurve:
-    """Critical torque M_c1 versus inverse sphere radius 1/a (paper Fig. 6a; 1/a = 0 anchored).
+    """Critical torque M_c1 versus inverse sphere radius 1/a (paper Fig. 5(a); 1/a = 0 anchored).
 
     Along each ray the torque m̂ grows from 0 with (f̂∥, f̂⊥) of :meth:`HelicalRod.sphere_loads`
     until the straight rod buckles (tilt modes passed over).
@@ -344,7 +344,7 @@ class ManifoldResult:
 def compute_manifold(params: Params | None = None, *, m_values=None, f_par_values=None,
                      levels=LEVELS, inv_a_values=None, base: str = "hinged",
                      workers: int | None = None) -> ManifoldResult:
-    """Grid, level curves, plane intersections and load-sphere curves (Fig. 7, Fig. 6a)."""
+    """Grid, level curves, plane intersections and load-sphere curves (Fig. 7, Fig. 5(a))."""
     import time
 
     rod = HelicalRod.from_params(params)

@@ -1,6 +1,6 @@
-"""Rotation of a rigid helix under a constant torque (paper §3, App. B).
+"""Rotation of a rigid helix under a constant torque (paper Sec. 3, App. B).
 
-With the translation suppressed, M = B ω (eq. Glg: reine Rotation): the lab-frame angular
+With the translation suppressed, M = B ω (Eq. (40)): the lab-frame angular
 velocity is ω = R B⁻¹ Rᵀ M for the body orientation R (columns: body axes in the lab) and
 the rotational resistance matrix B in body axes. Differentiating M_body = Rᵀ M = B ω_body
 with ∂t R = [ω]× R gives, in the eigenframe of B (eigenvalues B₁, B₂, B₃),

@@ -205,10 +205,11 @@ def _check(view, size):
         raise ParameterError("size", size, "one of " + ", ".join(SIZES))
 
 
-def _frames(t, positions, idx, title, view, size, thrust, motor_speed, trace):
+def _frames(t, positions, idx, title, view, size, thrust, motor_speed, trace, spacing=True):
     """Yield the RGB image (height, width, 3) of each record in ``idx``.
 
-    ``trace`` is the slice of records the thrust trace shows.
+    ``trace`` is the slice of records the thrust trace shows; ``spacing``: the lab view's
+    title states the frame spacing (for a movie, not for snapshots).
     """
     _check(view, size)
     pos = np.asarray(positions, float)[idx]
@@ -218,7 +219,8 @@ def _frames(t, positions, idx, title, view, size, thrust, motor_speed, trace):
             "motor axis at the first frame"
     else:
         pos, axes = pos - pos[:, :1], np.tile([0.0, 0.0, 1.0], (len(idx), 1))
-        how, axis_label = frame_spacing(t, idx, motor_speed), "motor axis"
+        how = frame_spacing(t, idx, motor_speed) if spacing else "lab frame"
+        axis_label = "motor axis"
     turn = beads_per_turn(pos[0]) if view == "corotating" else None
     frame = _Frame(_limits(pos), size, t[trace], None if thrust is None else thrust[trace],
                    axis_label, turn)
@@ -268,9 +270,13 @@ def movie(t: np.ndarray, positions: np.ndarray, path: str | Path, fps: int = 20,
 
 def snapshots(t: np.ndarray, positions: np.ndarray, out_dir: str | Path, count: int = 4,
               title: str = "", *, view: str = "lab", size: str = "720p",
-              thrust: np.ndarray | None = None, motor_speed: np.ndarray | None = None
-              ) -> list[Path]:
-    """PNG snapshots at ``count`` evenly spaced times, laid out as the movie frames."""
+              thrust: np.ndarray | None = None, motor_speed: np.ndarray | None = None,
+              first_record: int = 0) -> list[Path]:
+    """PNG snapshots at ``count`` evenly spaced times, laid out as the movie frames.
+
+    The files are named ``snapshot_KKKKK.png`` by record number, ``first_record`` being the
+    number of the first record passed.
+    """
     import imageio.v2 as imageio
 
     from .io import atomic_path
@@ -283,8 +289,8 @@ def snapshots(t: np.ndarray, positions: np.ndarray, out_dir: str | Path, count: 
     idx = np.unique(np.linspace(0, len(t) - 1, count).round().astype(int))
     files = []
     for i, img in zip(idx, _frames(t, positions, idx, title, view, size, thrust, motor_speed,
-                                   slice(None))):
-        p = out_dir / f"snapshot_{i:05d}.png"
+                                   slice(None), spacing=False)):
+        p = out_dir / f"snapshot_{first_record + i:05d}.png"
         with atomic_path(p) as tmp:
             imageio.imwrite(str(tmp), img, format="PNG")
         files.append(p)

@@ -86,7 +86,8 @@ def render(file, movie, snapshots, frames, fps, count, view, size, start, end, a
         out["frames"] = write_movie(rec["t"], rec["positions"], movie, fps=fps, max_frames=frames, **args)
     if snapshots is not None:
         out["snapshots"] = [str(p) for p in write_snapshots(rec["t"], rec["positions"], snapshots,
-                                                            min(count, len(rec["t"])), **args)]
+                                                            min(count, len(rec["t"])),
+                                                            first_record=int(np.argmax(keep)), **args)]
     if as_json:
         emit_json(out)
     else:

@@ -56,11 +56,12 @@ def corotate(positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """
     x = np.asarray(positions, float) - np.asarray(positions, float)[:, :1]
     out, axis = np.empty_like(x), np.empty((len(x), 3))
-    out[0], axis[0], rot = x[0], (0.0, 0.0, 1.0), np.eye(3)
+    out[0], axis[0] = x[0], (0.0, 0.0, 1.0)
     for k in range(1, len(x)):
         u, _, vt = np.linalg.svd(x[k].T @ out[k - 1])
         d = np.sign(np.linalg.det(u @ vt)) or 1.0
-        rot = u @ np.diag([1.0, 1.0, d]) @ vt  # row vectors: x @ rot ≈ previous frame
+        # lab → co-rotating frame for row vectors (x[k] @ rot ≈ out[k−1]), reflection excluded
+        rot = u @ np.diag([1.0, 1.0, d]) @ vt
         out[k], axis[k] = x[k] @ rot, rot[2]
     return out, axis
 
@@ -77,8 +78,9 @@ def beads_per_turn(positions: np.ndarray) -> int | None:
 
 
 def helix_axis(positions: np.ndarray, turn: int) -> np.ndarray:
-    """The local helix axis of one configuration (N+1, 3): the bead positions averaged over
-    one turn (``turn`` bonds), (N+2−turn, 3). It stays put while the coil turns about it."""
+    """The local helix axis of one configuration (N+1, 3): the means of ``turn`` consecutive
+    beads (one period of the coil, :func:`beads_per_turn`), (N+2−turn, 3). It stays put
+    while the coil turns about it."""
     c = np.cumsum(np.concatenate([np.zeros((1, 3)), positions]), axis=0)
     return (c[turn:] - c[:-turn]) / turn
 

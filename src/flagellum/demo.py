@@ -17,8 +17,15 @@ DEMO_RUNS = (("aligned", 0.8, 0.5), ("buckled", 1.6, 1.0))
 
 
 def run_demo(out_dir: str | Path = "flagellum-demo", progress: bool | None = None,
-             runs=DEMO_RUNS, frames: int = 80) -> dict:
-    """Simulate, classify, and write movies and a figure; returns the headline numbers."""
+             runs=DEMO_RUNS, frames: int = 100, size: str = "720p") -> dict:
+    """Simulate, classify, and write movies and a figure; returns the headline numbers.
+
+    Each run gets ``<label>.mp4`` (``size``: a key of :data:`flagellum.viz.SIZES`) and its
+    last frame as ``<label>.png``. An aligned filament only turns, so its movie shows the
+    lab frame over the last ``frames`` records, one frame per saved record (several per
+    motor revolution). Any other regime changes shape slowly: its movie shows the whole
+    run in the co-rotating view, ``frames`` frames spread evenly.
+    """
     from . import viz
 
     out_dir = Path(out_dir)
@@ -38,9 +45,10 @@ def run_demo(out_dir: str | Path = "flagellum-demo", progress: bool | None = Non
         click.echo(f"M = {torque:4.2f} pN·µm: {regime:<12} thrust {s.thrust_mean:.3f} ± "
                    f"{s.thrust_std:.3f} pN, motor speed {s.omega_mean:.0f} rad/s, "
                    f"precession {s.chi_mean:.1f} rad/s  ({sim.wall_seconds:.1f} s wall)")
-        half = tr.t >= tr.t[-1] / 2
-        viz.movie(tr.t[half], tr.positions[half], out_dir / f"{label}.mp4", max_frames=frames,
-                  title=f"M = {torque} pN·µm")
+        span, view = (slice(-frames, None), "lab") if regime == "aligned" else (slice(None), "corotating")
+        viz.movie(tr.t[span], tr.positions[span], out_dir / f"{label}.mp4", max_frames=frames,
+                  title=f"M = {torque} pN·µm · {regime}", view=view, size=size,
+                  thrust=tr.thrust[span], motor_speed=tr.motor_speed[span])
         trajs[f"M = {torque} pN·µm ({regime})"] = tr
     viz.time_series_figure(trajs, out_dir / "thrust")
     click.echo(f"wrote {out_dir}/: " + ", ".join(sorted(p.name for p in out_dir.iterdir())))

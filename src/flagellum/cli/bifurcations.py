@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import sys
-
 import click
 
+from .._progress import interactive
 from ..analysis.bifurcations import SCAN_SETTINGS
 from ._options import boundary_from_cli, boundary_options, param_options, params_from_cli
 from ._output import emit_json, emit_table, write_json
@@ -57,7 +56,7 @@ def bifurcations(torque_range, t_end, quality, tol, hysteresis, confirm_mc1, mc1
     res = find(params, boundary, quality=quality, torque_range=torque_range, t_end=t_end, tol=tol,
                hysteresis=hysteresis, mc2=not mc1_only, confirm_mc1=confirm_mc1,
                workers=workers if workers is not None else (os.cpu_count() or 1),
-               progress=not as_json and sys.stderr.isatty(), on_probe=partial)
+               progress=not as_json and interactive(), on_probe=partial)
     if out:
         write_json(out, {**res, "complete": True})
     if as_json:

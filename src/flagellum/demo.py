@@ -6,8 +6,6 @@ from pathlib import Path
 
 import click
 
-from .analysis.regimes import classify
-from .helix import Helix
 from .motor import Motor
 from .params import Params
 from .simulator import Simulator
@@ -17,31 +15,32 @@ DEMO_RUNS = (("aligned", 0.8, 0.5), ("buckled", 1.6, 1.0))
 
 
 def run_demo(out_dir: str | Path = "flagellum-demo", progress: bool | None = None,
-             runs=DEMO_RUNS, frames: int = 80) -> dict:
-    """Simulate, classify, and write movies and a figure; returns the headline numbers."""
+             runs=DEMO_RUNS, frames: int = 80, quiet: bool = False) -> dict:
+    """Simulate, classify, and write movies and a figure; returns the headline numbers
+    (and prints them, unless ``quiet``)."""
+    say = (lambda line: None) if quiet else click.echo
     from . import viz
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     params = Params()
-    helix = Helix.from_filament(params.filament)
     trajs, results = {}, {}
     for label, torque, t_end in runs:
         sim = Simulator(params, Motor(torque))
         tr = sim.run(t_end, save_every=t_end / 400, output=out_dir / f"{label}.h5",
                      progress=progress)
         s = tr.summary()
-        regime = classify(tr.t, tr.thrust, tr.positions, helix.radius, helix.axial_length)
+        regime = s.regime
         results[label] = {"torque": torque, "regime": regime, "thrust_mean": s.thrust_mean,
                           "thrust_std": s.thrust_std, "omega_mean": s.omega_mean,
                           "chi_mean": s.chi_mean, "wall_seconds": sim.wall_seconds}
-        click.echo(f"M = {torque:4.2f} pN·µm: {regime:<12} thrust {s.thrust_mean:.3f} ± "
-                   f"{s.thrust_std:.3f} pN, motor speed {s.omega_mean:.0f} rad/s, "
-                   f"precession {s.chi_mean:.1f} rad/s  ({sim.wall_seconds:.1f} s wall)")
+        say(f"M = {torque:4.2f} pN·µm: {regime:<12} thrust {s.thrust_mean:.3f} ± "
+            f"{s.thrust_std:.3f} pN, motor speed {s.omega_mean:.0f} rad/s, "
+            f"precession {s.chi_mean:.1f} rad/s  ({sim.wall_seconds:.1f} s wall)")
         half = tr.t >= tr.t[-1] / 2
         viz.movie(tr.t[half], tr.positions[half], out_dir / f"{label}.mp4", max_frames=frames,
                   title=f"M = {torque} pN·µm")
         trajs[f"M = {torque} pN·µm ({regime})"] = tr
     viz.time_series_figure(trajs, out_dir / "thrust")
-    click.echo(f"wrote {out_dir}/: " + ", ".join(sorted(p.name for p in out_dir.iterdir())))
+    say(f"wrote {out_dir}/: " + ", ".join(sorted(p.name for p in out_dir.iterdir())))
     return results

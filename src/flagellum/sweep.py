@@ -319,7 +319,7 @@ class _Store:
         if not resume:
             if overwrite:
                 return store
-            raise ParameterError("out", str(path), "a new file (use --resume to continue it "
+            raise ParameterError("output", str(path), "a new file (use --resume to continue it "
                                                    "or --overwrite to replace it)")
         old = read_sweep(path)
         if old.attrs.get("fixed") != store.attrs["fixed"] or set(old.dims) != set(sweep.dims) \

@@ -161,7 +161,7 @@ def bracket(probes: list[dict]) -> tuple[float | None, float | None, str | None]
     upper = sorted(p["torque"] for p in probes if p["regime"] == UPPER)
     lower = sorted(p["torque"] for p in probes if p["regime"] == LOWER)
     if not upper:
-        return None, None, "no oscillating run (raise the torque range or --t-end)"
+        return None, None, "no oscillating run (raise the torque range or --time)"
     hi = upper[0]
     below = [m for m in lower if m < hi]
     if not below:

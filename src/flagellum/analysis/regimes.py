@@ -73,6 +73,10 @@ T_TREND = 4.3
 DRIFT_TOL = 0.02
 #: fewest records of a window that :func:`assess` can test (four quarters of four)
 MIN_SAMPLES = 16
+#: a regime resting on a metric within this factor of its threshold is not sure while the
+#: metric still changes across the window by more than CREEP times the threshold
+MARGIN = 2.0
+CREEP = 0.1
 
 
 @dataclass(frozen=True)
@@ -157,14 +161,16 @@ def classify(t, thrust, positions, helix_radius: float, axial_length: float | No
 
 # -- settled or transient -------------------------------------------------------------------
 
-#: the criteria of :func:`decide`, by the metric each one reads
-_CRITERIA = {
-    "thrust_mean": lambda m: m.thrust_mean < 0,
-    "sigma_over_sigma0": lambda m: (m.sigma_over_sigma0 > SIGMA_IV, m.sigma_over_sigma0 > SIGMA_BUCKLED),
-    "tilt_deg": lambda m: m.tilt_deg > TILT_REORIENTED,
-    "centroid_offset": lambda m: m.centroid_offset > CENTROID_BUCKLED,
-    "thrust_std": lambda m: m.thrust_std > THRUST_BUCKLED * abs(m.thrust_mean),
-}
+#: the criteria of :func:`decide`: the metric each one reads and its threshold (a criterion
+#: holds above it; ``thrust_mean``: below it)
+_CRITERIA = (
+    ("thrust_mean", lambda m: 0.0),
+    ("sigma_over_sigma0", lambda m: SIGMA_IV),
+    ("tilt_deg", lambda m: TILT_REORIENTED),
+    ("centroid_offset", lambda m: CENTROID_BUCKLED),
+    ("thrust_std", lambda m: THRUST_BUCKLED * abs(m.thrust_mean)),
+    ("sigma_over_sigma0", lambda m: SIGMA_BUCKLED),
+)
 #: averages whose settling :func:`assess` tests, with the smallest scale a drift is judged by
 _AVERAGES = {"thrust_mean": 1e-3, "end_to_end_mean": 1e-3, "omega_mean": 1.0}  # pN, µm, rad/s
 
@@ -177,6 +183,28 @@ def _trend(values) -> tuple[float, float, float]:
     resid = np.asarray(values, float) - (a + b * x)
     se = math.sqrt(float(resid @ resid) / 2 / float(((x - 1.5) ** 2).sum()))
     return float(b), se, float(a + 5.5 * b)
+
+
+def _with(m: RegimeMetrics, **values) -> RegimeMetrics:
+    return RegimeMetrics(**{**m.to_dict(), **values})
+
+
+def _unsure(whole: RegimeMetrics, quarters: list[RegimeMetrics]) -> list[str]:
+    """Metrics that decide the regime of ``whole`` from within a factor :data:`MARGIN` of
+    their threshold while they drift (monotonically over the quarters) across the window by
+    more than :data:`CREEP` of it."""
+    label, found = decide(whole), []
+    for name, threshold in _CRITERIA[1:]:  # the sign of the thrust has no scale
+        v, th = getattr(whole, name), threshold(whole)
+        if not (th > 0 and th / MARGIN <= v <= th * MARGIN):
+            continue
+        steps = np.diff([getattr(q, name) for q in quarters])
+        monotonic = bool(np.all(steps > 0) or np.all(steps < 0))  # a drift, not noise
+        across = _with(whole, **{name: th / MARGIN if v > th else th * MARGIN})
+        if (monotonic and abs(steps.sum()) > CREEP * th and decide(across) != label
+                and name not in found):
+            found.append(name)
+    return found
 
 
 @dataclass(frozen=True)
@@ -195,11 +223,18 @@ def assess(t, thrust, positions, motor_angle, helix_radius: float,
     """Regime of the window t ≥ t_from (default: the last half) and whether it has settled.
 
     The observables of :func:`measure` and the averages thrust, ⟨r⟩ and ω (slope of the
-    unwrapped ``motor_angle``) are measured on the four quarters of the window. A trend
-    counts when its slope exceeds :data:`T_TREND` standard errors; extrapolated over one
-    more window it must not change the regime (else the regime is ``"transient"``) nor an
-    average by more than :data:`DRIFT_TOL` (else the run is not ``steady``). A window of
-    fewer than :data:`MIN_SAMPLES` records keeps its regime and is not ``steady``.
+    unwrapped ``motor_angle``) are measured on the four quarters of the window. The regime is
+    ``"transient"`` when
+
+    * a trend of a metric (its slope over the quarters larger than :data:`T_TREND` standard
+      errors), extrapolated to the middle of one more window, changes the regime, or
+    * the regime rests on a metric within a factor :data:`MARGIN` of its threshold that
+      drifts (monotonically over the quarters) across the window by more than :data:`CREEP`
+      of that threshold.
+
+    The run is ``steady`` when its regime is not transient and no average drifts (a
+    significant trend) by more than :data:`DRIFT_TOL` over one window. A window of fewer
+    than :data:`MIN_SAMPLES` records keeps its regime and is not ``steady``.
     """
     t = np.asarray(t, float)
     thrust, positions = np.asarray(thrust, float), np.asarray(positions, float)
@@ -213,19 +248,25 @@ def assess(t, thrust, positions, motor_angle, helix_radius: float,
                           f"(< {MIN_SAMPLES}) to test that it has settled")
     idx = np.array_split(np.flatnonzero(sel), 4)
     quarters = [measure(t[i], thrust[i], positions[i], helix_radius, -math.inf) for i in idx]
-    ahead, trends = dict(whole.to_dict()), {}
-    for name in _CRITERIA:
+    ahead = {}
+    for name in dict.fromkeys(n for n, _ in _CRITERIA):
         slope, se, next_value = _trend([getattr(q, name) for q in quarters])
         if abs(slope) > T_TREND * se and slope != 0:
-            trends[name] = (getattr(quarters[0], name), getattr(quarters[-1], name))
             ahead[name] = max(next_value, 0.0) if name != "thrust_mean" else next_value
-    ahead = RegimeMetrics(**ahead)
-    heading, drifting, notes = decide(ahead), [], []
+    heading = decide(_with(whole, **ahead))
+    drifting, notes = [], []
     if heading != label:
-        drifting = [n for n, crit in _CRITERIA.items() if n in trends and crit(ahead) != crit(whole)]
-        notes.append(f"the window looks {label} but is heading to {heading}: " + ", ".join(
-            f"{n} {trends[n][0]:.3g} → {trends[n][1]:.3g} from the first to the last quarter"
-            for n in drifting))
+        drifting = [n for n in ahead if decide(_with(whole, **{n: ahead[n]})) != label] or list(ahead)
+        notes.append(f"the window looks {label} but its trends lead to {heading}")
+    drifting += [n for n in _unsure(whole, quarters) if n not in drifting]
+    if drifting and heading == label:
+        notes.append(f"the window looks {label}, but that rests on metrics near their "
+                     "thresholds that are still changing")
+    if drifting:
+        notes[-1] += ": " + ", ".join(f"{n} {getattr(quarters[0], n):.3g} → "
+                                      f"{getattr(quarters[-1], n):.3g} from the first to the "
+                                      "last quarter" for n in drifting)
+    transient = bool(drifting)
     averages = {"thrust_mean": [float(thrust[i].mean()) for i in idx],
                 "end_to_end_mean": [float(end_to_end(positions[i]).mean()) for i in idx],
                 "omega_mean": [float(np.polyfit(t[i], motor_angle[i], 1)[0]) for i in idx]}
@@ -235,14 +276,14 @@ def assess(t, thrust, positions, motor_angle, helix_radius: float,
         scale = max(abs(float(np.mean(values))), _AVERAGES[name])
         if abs(slope) > T_TREND * se and abs(4 * slope) > DRIFT_TOL * scale:
             unsettled.append(name)
-            drifting.append(name)
     if unsettled:
-        notes.append("averages still drifting by more than "
-                     f"{DRIFT_TOL:.0%} per window: {', '.join(unsettled)}")
+        notes.append(f"averages still drifting by more than {DRIFT_TOL:.0%} per window: "
+                     + ", ".join(unsettled))
+        drifting += [n for n in unsettled if n not in drifting]
     if notes:
         notes.append("run longer or average later (t_from)")
-    regime = TRANSIENT if heading != label else label
-    return Assessment(regime, label, not notes, tuple(drifting), "; ".join(notes))
+    return Assessment(TRANSIENT if transient else label, label, not notes, tuple(drifting),
+                      "; ".join(notes))
 
 
 @dataclass(frozen=True)

@@ -6,17 +6,18 @@ import click
 
 from .._progress import interactive
 from ..analysis.bifurcations import SCAN_SETTINGS
-from ._options import boundary_from_cli, boundary_options, param_options, params_from_cli
+from ._options import (boundary_from_cli, boundary_options, output_option, param_options,
+                       params_from_cli, time_option)
 from ._output import emit_json, emit_table, write_json
 
 
-@click.command("bifurcations")
+@click.command("bifurcations", short_help='Bifurcation torques M_c1 and M_c2 (Sec. 3.1)')
 @param_options
 @boundary_options(anchor=False)
 @click.option("--torque-range", default=None, metavar="LO:HI[:STEP]",
               help="torques of the coarse M_c2 scan [pN·µm] (default quick 3:5.5:0.5, full 2.5:5.5:0.25)")
-@click.option("--t-end", type=float, default=None,
-              help="simulated time per run after the torque step [s] (default quick 0.3, full 0.8)")
+@time_option(default=None,
+             help="simulated time per run after the torque step [s] (default quick 0.3, full 0.8)")
 @click.option("--quality", type=click.Choice(list(SCAN_SETTINGS)), default="quick", show_default=True)
 @click.option("--tol", type=float, default=None,
               help="stop bisecting when the M_c2 bracket is this narrow [pN·µm] (default quick 0.1, full 0.025)")
@@ -26,8 +27,7 @@ from ._output import emit_json, emit_table, write_json
               help="simulate at M_c1(1 ∓ DELTA), expecting aligned and buckled")
 @click.option("--mc1-only", is_flag=True, help="only M_c1 (linear stability, seconds)")
 @click.option("--workers", type=int, default=None, help="worker processes (default: all cores)")
-@click.option("--out", "-o", type=click.Path(dir_okay=False), default=None,
-              help="write the JSON result here (atomically, also after every run)")
+@output_option("out", "write the JSON result here (atomically, also after every run)", default=None)
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object (no progress bar)")
 def bifurcations(torque_range, t_end, quality, tol, hysteresis, confirm_mc1, mc1_only, workers,
                  out, as_json, **kwargs):

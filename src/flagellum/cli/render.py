@@ -11,7 +11,7 @@ from ._options import existing_file
 from ._output import emit_json, emit_table
 
 
-@click.command("render")
+@click.command("render", short_help='Movie and snapshots of a trajectory file')
 @click.argument("file")
 @click.option("--movie", type=click.Path(dir_okay=False), default=None, help="write an MP4 movie here")
 @click.option("--snapshots", type=click.Path(file_okay=False), default=None,

@@ -6,8 +6,6 @@ from pathlib import Path
 
 import click
 
-from .analysis.regimes import classify
-from .helix import Helix
 from .motor import Motor
 from .params import Params
 from .simulator import Simulator
@@ -17,8 +15,9 @@ DEMO_RUNS = (("aligned", 0.8, 0.5), ("buckled", 1.6, 1.0))
 
 
 def run_demo(out_dir: str | Path = "flagellum-demo", progress: bool | None = None,
-             runs=DEMO_RUNS, frames: int = 100, size: str = "720p") -> dict:
-    """Simulate, classify, and write movies and a figure; returns the headline numbers.
+             runs=DEMO_RUNS, frames: int = 100, size: str = "720p", quiet: bool = False) -> dict:
+    """Simulate, classify, and write movies and a figure; returns the headline numbers
+    (and prints them, unless ``quiet``).
 
     Each run gets ``<label>.mp4`` (``size``: a key of :data:`flagellum.viz.SIZES`) and its
     last frame as ``<label>.png``. An aligned filament only turns, so its movie shows the
@@ -26,30 +25,30 @@ def run_demo(out_dir: str | Path = "flagellum-demo", progress: bool | None = Non
     motor revolution). Any other regime changes shape slowly: its movie shows the whole
     run in the co-rotating view, ``frames`` frames spread evenly.
     """
+    say = (lambda line: None) if quiet else click.echo
     from . import viz
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     params = Params()
-    helix = Helix.from_filament(params.filament)
     trajs, results = {}, {}
     for label, torque, t_end in runs:
         sim = Simulator(params, Motor(torque))
         tr = sim.run(t_end, save_every=t_end / 400, output=out_dir / f"{label}.h5",
                      progress=progress)
         s = tr.summary()
-        regime = classify(tr.t, tr.thrust, tr.positions, helix.radius, helix.axial_length)
+        regime = s.regime
         results[label] = {"torque": torque, "regime": regime, "thrust_mean": s.thrust_mean,
                           "thrust_std": s.thrust_std, "omega_mean": s.omega_mean,
                           "chi_mean": s.chi_mean, "wall_seconds": sim.wall_seconds}
-        click.echo(f"M = {torque:4.2f} pN·µm: {regime:<12} thrust {s.thrust_mean:.3f} ± "
-                   f"{s.thrust_std:.3f} pN, motor speed {s.omega_mean:.0f} rad/s, "
-                   f"precession {s.chi_mean:.1f} rad/s  ({sim.wall_seconds:.1f} s wall)")
+        say(f"M = {torque:4.2f} pN·µm: {regime:<12} thrust {s.thrust_mean:.3f} ± "
+            f"{s.thrust_std:.3f} pN, motor speed {s.omega_mean:.0f} rad/s, "
+            f"precession {s.chi_mean:.1f} rad/s  ({sim.wall_seconds:.1f} s wall)")
         span, view = (slice(-frames, None), "lab") if regime == "aligned" else (slice(None), "corotating")
         viz.movie(tr.t[span], tr.positions[span], out_dir / f"{label}.mp4", max_frames=frames,
                   title=f"M = {torque} pN·µm · {regime}", view=view, size=size,
                   thrust=tr.thrust[span], motor_speed=tr.motor_speed[span])
         trajs[f"M = {torque} pN·µm ({regime})"] = tr
     viz.time_series_figure(trajs, out_dir / "thrust")
-    click.echo(f"wrote {out_dir}/: " + ", ".join(sorted(p.name for p in out_dir.iterdir())))
+    say(f"wrote {out_dir}/: " + ", ".join(sorted(p.name for p in out_dir.iterdir())))
     return results

@@ -1,4 +1,4 @@
-"""Export a trajectory to ParaView (``flagellum export run.h5 --format vtk --out DIR``).
+"""Export a trajectory to ParaView (``flagellum export run.h5 --format vtk --output DIR``).
 
 Written with plain Python (no VTK library needed). For every exported record ``k``:
 

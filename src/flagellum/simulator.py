@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -31,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from . import io
+from ._progress import progress_bar, show_progress
 from .errors import ParameterError, SimulationError
 from .helix import Helix
 from .hydro.options import Hydrodynamics
@@ -406,8 +406,7 @@ class Simulator:
         """Records ``start`` … of ``plan``; into ``files`` (parts, checkpoints), else kept in memory."""
         times = self._times(plan)
         flush_every = plan["flush_every"]
-        if progress is None:
-            progress = sys.stderr.isatty()
+        progress = show_progress(progress)
         buf = {k: [] for k in io.RECORD_FIELDS}
         kept = {k: [] for k in io.RECORD_FIELDS} if files is None else None
         if start == 0:
@@ -554,11 +553,7 @@ def run_first_success(make, attempts, t_end: float, save_every: float):
 
 
 def _progress(total: int, enabled: bool):
-    if not enabled:
-        return None
-    from tqdm import tqdm
-
-    return tqdm(total=total, unit="save", desc="simulating", leave=False, dynamic_ncols=True)
+    return progress_bar(total=total, unit="save", desc="simulating", leave=False) if enabled else None
 
 
 __all__ = ["CHART_LIMIT", "MAX_RECORDS", "MAX_STRAIN", "Simulator", "SolverOptions", "State",

@@ -33,7 +33,6 @@ from __future__ import annotations
 import itertools
 import json
 import math
-import sys
 import time
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
@@ -320,7 +319,7 @@ class _Store:
         if not resume:
             if overwrite:
                 return store
-            raise ParameterError("out", str(path), "a new file (use --resume to continue it "
+            raise ParameterError("output", str(path), "a new file (use --resume to continue it "
                                                    "or --overwrite to replace it)")
         old = read_sweep(path)
         if old.attrs.get("fixed") != store.attrs["fixed"] or set(old.dims) != set(sweep.dims) \
@@ -433,14 +432,13 @@ def run_sweep(sweep: Sweep, out: str | Path, *, resume: bool = False, overwrite:
     if not tasks:
         store.save()
     else:
-        from tqdm import tqdm
+        from ._progress import progress_bar, show_progress
 
         executor = (process_pool(min(workers or default_workers(), len(tasks)))
                     if scheduler is None and dask_local is None else dask_pool(scheduler, dask_local))
-        show = sys.stderr.isatty() if progress is None else progress
         with executor as (submit, as_completed), \
-                tqdm(total=sweep.size, initial=sweep.size - len(tasks), unit="pt", desc="sweep",
-                     dynamic_ncols=True, disable=not show) as bar:
+                progress_bar(total=sweep.size, initial=sweep.size - len(tasks), unit="pt",
+                             desc="sweep", disable=not show_progress(progress)) as bar:
             store.save()  # the grid, once the workers are reachable
             while tasks:  # round 1: the points; round 2: their retries with the fallback
                 futures = {submit(run_point, {**sweep.values(points[i]), **(fallback if fb else {})}):

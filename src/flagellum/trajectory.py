@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from . import io
-from .analysis.observables import Summary, summarize
+from .analysis.regimes import RunSummary, summarize_run
 from .errors import SimulationError
 
 COMPLETE = "complete"  #: ``status`` of a finished run's main file
@@ -39,8 +39,19 @@ class Trajectory:
     hook_tangent : (n_t, 3) unit tangent of the hook frame.
     thrust : (n_t,) force of the filament on its anchor along e_z [pN] (paper Sec. 3.1).
     anchor_force : (n_t, 3) elastic force on bead 0 [pN].
-    motor_speed : (n_t,) rotation rate of the hook frame about e_z, ω·e_z [rad/s].
-    motor_angle : (n_t,) accumulated (unwrapped) rotation of the hook frame about e_z [rad].
+    motor_speed : (n_t,) instantaneous rate ω_hook·e_z [rad/s]: the lab-frame angular
+        velocity of the hook frame projected on the motor axis. At t = 0 the filament is
+        stress-free, so the motor torque turns the hook frame against its own rotational
+        drag only: the first record is of order M/(γ_R h) (2.8·10⁶ rad/s per pN·µm for the
+        paper's filament); the twist spreads along the filament within γ_R L²/C ≈ 40 µs,
+        and the following records show the turning filament. Averages should leave out the
+        start (the summaries use the last half of the run).
+    motor_angle : (n_t,) accumulated (unwrapped) rotation of the hook frame about e_z [rad];
+        its slope is ``summary().omega_mean``, the rate at which the hook frame turns. It
+        equals the mean of ``motor_speed`` while the hook frame turns about e_z (aligned
+        filament); once the filament buckles it turns about its tilted local helix axis
+        (angle β to e_z), and the mean of ``motor_speed`` is smaller, by about cos β
+        (paper Sec. 3.1.1).
     torque : (n_t,) motor torque M(t) [pN·µm].
     energy : (n_t,) elastic energy [pN·µm].
     frame_angle : (n_t,) angle of the computational (co-rotating) frame about e_z [rad].
@@ -88,12 +99,18 @@ class Trajectory:
         segments = f", {self.positions.shape[1] - 1} segments" if self.positions.ndim == 3 else ""
         return f"Trajectory({len(self.t)} records{span}{segments})"
 
-    def summary(self, t_from: float | None = None) -> Summary:
-        """Time averages (:func:`flagellum.analysis.observables.summarize`). ω is the slope of
-        the unwrapped hook angle: the rotation rate about the local helix axis at the motor
-        (paper Sec. 3.1.2), also when the hook tilts (buckled: ω·e_z is smaller by cos β)."""
-        return summarize(self.t, self.thrust, self.motor_angle, self.positions, self.energy,
-                         self.meta.get("helix_radius", 0.2), t_from)
+    def summary(self, t_from: float | None = None) -> RunSummary:
+        """Time averages over t ≥ ``t_from`` [s] (default: the last half of the run) and the
+        regime of that window (:func:`flagellum.analysis.regimes.summarize_run`).
+
+        ``omega_mean`` is the slope of ``motor_angle``, the rate at which the hook frame
+        turns: the rotation rate about the local helix axis at the motor (paper Sec. 3.1.2),
+        also when the hook tilts (buckled: the mean of ``motor_speed``, ω·e_z, is smaller by
+        about cos β). ``regime`` is ``"transient"`` when the window has not settled into a
+        regime, with the drifting quantities in ``drifting`` and why in ``regime_note``.
+        """
+        return summarize_run(self.t, self.thrust, self.motor_angle, self.positions, self.energy,
+                             self.meta.get("helix_radius", 0.2), t_from)
 
 
 # -- files ------------------------------------------------------------------------------

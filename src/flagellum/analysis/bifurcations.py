@@ -161,7 +161,7 @@ def bracket(probes: list[dict]) -> tuple[float | None, float | None, str | None]
     upper = sorted(p["torque"] for p in probes if p["regime"] == UPPER)
     lower = sorted(p["torque"] for p in probes if p["regime"] == LOWER)
     if not upper:
-        return None, None, "no oscillating run (raise the torque range or --t-end)"
+        return None, None, "no oscillating run (raise the torque range or --time)"
     hi = upper[0]
     below = [m for m in lower if m < hi]
     if not below:
@@ -295,12 +295,12 @@ def bifurcations(params: Params | None = None, boundary: Boundary | None = None,
 
     out = {"quality": quality, "sphere_radius": boundary.sphere_radius, "t_end": t_end, "tol": tol,
            "scan_torques": list(torques), "paper": PAPER_THRESHOLDS}
-    from tqdm import tqdm
+    from .._progress import progress_bar
 
     n_chain = len(torques) if hysteresis and mc2 else 0
     workers = min(workers, len(torques) + 2)
     with _executor(workers) as (submit, as_completed), \
-            tqdm(total=0, unit="run", desc="bifurcations", dynamic_ncols=True, disable=not progress) as bar:
+            progress_bar(total=0, unit="run", desc="bifurcations", disable=not progress) as bar:
         runner = _Runner(submit, as_completed, workers, bar, on_probe)
         # independent runs go to the pool first (long chains first); M_c1 meanwhile here
         chains = runner.start(_chain_task, [(simulate, torques, "up", tol), (simulate, torques[::-1], "down", tol)],

@@ -28,6 +28,17 @@ The four regimes of Fig. 3(a), told apart by what a run shows in its averaging w
         ⟨r⟩ ± R), nor can a one-way drift of r (a transient that is still buckling), which
         alone can give a large σ. The mid-range, not ⟨r⟩, centres the band, so that one
         brief collapse in a long relaxed window still counts.
+
+A run that has not settled can look like another regime: the filament starts from the
+stress-free helix, and its relaxation (the centroid drifting onto the motor axis, the thrust
+settling) takes longer than a short run. :func:`assess` therefore also tests the window
+itself: it measures the observables on the four quarters of the window, extrapolates their
+significant linear trends over one more window of the same length, and calls the run
+``transient`` when the regime of that extrapolation differs from the regime of the window
+(the trend that flips it is named in ``drifting``). It also reports whether the averages
+(thrust, ⟨r⟩, ω) have settled (``steady``). A slow instability whose growth is not yet
+visible in the window (M just above M_c1) cannot be seen this way; linear stability
+(:func:`flagellum.analysis.stability.linear_stability`) answers that.
 """
 
 from __future__ import annotations
@@ -37,9 +48,11 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .observables import end_to_end
+from .observables import Summary, end_to_end, summarize
 
 REGIMES = ("reorienting", "aligned", "buckled", "oscillating")
+#: the label of a run whose regime is not settled in its averaging window (:func:`assess`)
+TRANSIENT = "transient"
 
 #: σ/σ0 above which a collapsing state is regime (iv) (σ0 = R/√2 is the maximum of (iii))
 SIGMA_IV = 1.5
@@ -53,6 +66,17 @@ THRUST_BUCKLED = 0.05
 SIGMA_BUCKLED = 0.3
 #: mean tilt [deg] of the end-to-end vector from −e_z beyond which the filament has turned away
 TILT_REORIENTED = 45.0
+#: a quarter-to-quarter trend counts when its slope exceeds this many standard errors
+#: (Student's t at 95 % for the 2 degrees of freedom of a line through four points)
+T_TREND = 4.3
+#: an average has settled when its trend changes it by less than this fraction over one window
+DRIFT_TOL = 0.02
+#: fewest records of a window that :func:`assess` can test (four quarters of four)
+MIN_SAMPLES = 16
+#: a regime resting on a metric within this factor of its threshold is not sure while the
+#: metric still changes across the window by more than CREEP times the threshold
+MARGIN = 2.0
+CREEP = 0.1
 
 
 @dataclass(frozen=True)
@@ -84,14 +108,20 @@ def count_swings(r: np.ndarray, half_width: float) -> int:
     return int(np.count_nonzero(np.diff(level)))
 
 
-def measure(t, thrust, positions, helix_radius: float, t_from: float | None = None) -> RegimeMetrics:
-    """Regime observables over the window t ≥ t_from (default: the last half)."""
-    t = np.asarray(t, float)
+def _window(t, t_from: float | None) -> np.ndarray:
+    """Records of the window t ≥ t_from (default: the last half; at least the last record)."""
     if t_from is None:
         t_from = t[0] + 0.5 * (t[-1] - t[0])
     sel = t >= t_from - 1e-12
     if not sel.any():
         sel[-1] = True
+    return sel
+
+
+def measure(t, thrust, positions, helix_radius: float, t_from: float | None = None) -> RegimeMetrics:
+    """Regime observables over the window t ≥ t_from (default: the last half)."""
+    t = np.asarray(t, float)
+    sel = _window(t, t_from)
     th = np.asarray(thrust, float)[sel]
     pos = np.asarray(positions, float)[sel]
     r = end_to_end(pos)
@@ -123,6 +153,154 @@ def classify(t, thrust, positions, helix_radius: float, axial_length: float | No
              t_from: float | None = None) -> str:
     """Name the regime of the window t ≥ t_from (default: the last half).
 
-    ``axial_length`` is accepted for compatibility and not used.
+    ``axial_length`` is accepted for compatibility and not used. The window is taken as it
+    is; :func:`assess` also tests whether it has settled.
     """
     return decide(measure(t, thrust, positions, helix_radius, t_from))
+
+
+# -- settled or transient -------------------------------------------------------------------
+
+#: the criteria of :func:`decide`: the metric each one reads and its threshold (a criterion
+#: holds above it; ``thrust_mean``: below it)
+_CRITERIA = (
+    ("thrust_mean", lambda m: 0.0),
+    ("sigma_over_sigma0", lambda m: SIGMA_IV),
+    ("tilt_deg", lambda m: TILT_REORIENTED),
+    ("centroid_offset", lambda m: CENTROID_BUCKLED),
+    ("thrust_std", lambda m: THRUST_BUCKLED * abs(m.thrust_mean)),
+    ("sigma_over_sigma0", lambda m: SIGMA_BUCKLED),
+)
+#: averages whose settling :func:`assess` tests, with the smallest scale a drift is judged by
+_AVERAGES = {"thrust_mean": 1e-3, "end_to_end_mean": 1e-3, "omega_mean": 1.0}  # pN, µm, rad/s
+
+
+def _trend(values) -> tuple[float, float, float]:
+    """(slope per quarter, its standard error, fitted value one window on) of four values at
+    the quarters 0…3 of a window; the next window's middle is at quarter 5.5."""
+    x = np.arange(4.0)
+    b, a = np.polyfit(x, np.asarray(values, float), 1)
+    resid = np.asarray(values, float) - (a + b * x)
+    se = math.sqrt(float(resid @ resid) / 2 / float(((x - 1.5) ** 2).sum()))
+    return float(b), se, float(a + 5.5 * b)
+
+
+def _with(m: RegimeMetrics, **values) -> RegimeMetrics:
+    return RegimeMetrics(**{**m.to_dict(), **values})
+
+
+def _unsure(whole: RegimeMetrics, quarters: list[RegimeMetrics]) -> list[str]:
+    """Metrics that decide the regime of ``whole`` from within a factor :data:`MARGIN` of
+    their threshold while they drift (monotonically over the quarters) across the window by
+    more than :data:`CREEP` of it."""
+    label, found = decide(whole), []
+    for name, threshold in _CRITERIA[1:]:  # the sign of the thrust has no scale
+        v, th = getattr(whole, name), threshold(whole)
+        if not (th > 0 and th / MARGIN <= v <= th * MARGIN):
+            continue
+        steps = np.diff([getattr(q, name) for q in quarters])
+        monotonic = bool(np.all(steps > 0) or np.all(steps < 0))  # a drift, not noise
+        across = _with(whole, **{name: th / MARGIN if v > th else th * MARGIN})
+        if (monotonic and abs(steps.sum()) > CREEP * th and decide(across) != label
+                and name not in found):
+            found.append(name)
+    return found
+
+
+@dataclass(frozen=True)
+class Assessment:
+    """The regime of a window and whether the window has settled (:func:`assess`)."""
+
+    regime: str  #: one of :data:`REGIMES`, or ``"transient"`` when the window's regime is not settled
+    window_regime: str  #: the regime of the window as it is (:func:`decide`)
+    steady: bool  #: the regime and the averages (thrust, ⟨r⟩, ω) have settled
+    drifting: tuple[str, ...]  #: the quantities that have not settled
+    note: str  #: why the run is transient or not steady ("" when steady)
+
+
+def assess(t, thrust, positions, motor_angle, helix_radius: float,
+           t_from: float | None = None) -> Assessment:
+    """Regime of the window t ≥ t_from (default: the last half) and whether it has settled.
+
+    The observables of :func:`measure` and the averages thrust, ⟨r⟩ and ω (slope of the
+    unwrapped ``motor_angle``) are measured on the four quarters of the window. The regime is
+    ``"transient"`` when
+
+    * a trend of a metric (its slope over the quarters larger than :data:`T_TREND` standard
+      errors), extrapolated to the middle of one more window, changes the regime, or
+    * the regime rests on a metric within a factor :data:`MARGIN` of its threshold that
+      drifts (monotonically over the quarters) across the window by more than :data:`CREEP`
+      of that threshold.
+
+    The run is ``steady`` when its regime is not transient and no average drifts (a
+    significant trend) by more than :data:`DRIFT_TOL` over one window. A window of fewer
+    than :data:`MIN_SAMPLES` records keeps its regime and is not ``steady``.
+    """
+    t = np.asarray(t, float)
+    thrust, positions = np.asarray(thrust, float), np.asarray(positions, float)
+    motor_angle = np.asarray(motor_angle, float)
+    sel = _window(t, t_from)
+    whole = measure(t[sel], thrust[sel], positions[sel], helix_radius, -math.inf)
+    label = decide(whole)
+    if whole.samples < MIN_SAMPLES:
+        return Assessment(label, label, False, ("samples",),
+                          f"{whole.samples} records in the averaging window, too few "
+                          f"(< {MIN_SAMPLES}) to test that it has settled")
+    idx = np.array_split(np.flatnonzero(sel), 4)
+    quarters = [measure(t[i], thrust[i], positions[i], helix_radius, -math.inf) for i in idx]
+    ahead = {}
+    for name in dict.fromkeys(n for n, _ in _CRITERIA):
+        slope, se, next_value = _trend([getattr(q, name) for q in quarters])
+        if abs(slope) > T_TREND * se and slope != 0:
+            ahead[name] = max(next_value, 0.0) if name != "thrust_mean" else next_value
+    heading = decide(_with(whole, **ahead))
+    drifting, notes = [], []
+    if heading != label:
+        drifting = [n for n in ahead if decide(_with(whole, **{n: ahead[n]})) != label] or list(ahead)
+        notes.append(f"the window looks {label} but its trends lead to {heading}")
+    drifting += [n for n in _unsure(whole, quarters) if n not in drifting]
+    if drifting and heading == label:
+        notes.append(f"the window looks {label}, but that rests on metrics near their "
+                     "thresholds that are still changing")
+    if drifting:
+        notes[-1] += ": " + ", ".join(f"{n} {getattr(quarters[0], n):.3g} → "
+                                      f"{getattr(quarters[-1], n):.3g} from the first to the "
+                                      "last quarter" for n in drifting)
+    transient = bool(drifting)
+    averages = {"thrust_mean": [float(thrust[i].mean()) for i in idx],
+                "end_to_end_mean": [float(end_to_end(positions[i]).mean()) for i in idx],
+                "omega_mean": [float(np.polyfit(t[i], motor_angle[i], 1)[0]) for i in idx]}
+    unsettled = []
+    for name, values in averages.items():
+        slope, se, _ = _trend(values)
+        scale = max(abs(float(np.mean(values))), _AVERAGES[name])
+        if abs(slope) > T_TREND * se and abs(4 * slope) > DRIFT_TOL * scale:
+            unsettled.append(name)
+    if unsettled:
+        notes.append(f"averages still drifting by more than {DRIFT_TOL:.0%} per window: "
+                     + ", ".join(unsettled))
+        drifting += [n for n in unsettled if n not in drifting]
+    if notes:
+        notes.append("run longer or average later (t_from)")
+    return Assessment(TRANSIENT if transient else label, label, not notes, tuple(drifting),
+                      "; ".join(notes))
+
+
+@dataclass(frozen=True)
+class RunSummary(Summary):
+    """:class:`~flagellum.analysis.observables.Summary` with the regime of the window
+    (:func:`assess`)."""
+
+    regime: str = ""  #: one of :data:`REGIMES`, or ``"transient"``
+    steady: bool = False  #: the regime and the averages have settled in the window
+    drifting: tuple[str, ...] = ()  #: quantities that have not settled
+    regime_note: str = ""  #: why the run is transient or not steady ("" when steady)
+
+
+def summarize_run(t, thrust, motor_angle, positions, energy, helix_radius: float,
+                  t_from: float | None = None) -> RunSummary:
+    """:func:`~flagellum.analysis.observables.summarize` plus :func:`assess` of the same window."""
+    s = summarize(t, thrust, motor_angle, positions, energy, helix_radius, t_from)
+    a = assess(t, thrust, positions, motor_angle, helix_radius, s.t_from)
+    return RunSummary(**s.to_dict(), regime=a.regime, steady=a.steady, drifting=a.drifting,
+                      regime_note=a.note)

@@ -43,6 +43,44 @@ def _add(func, opts):
     return func
 
 
+# -- one name per concept -----------------------------------------------------------------
+
+class AliasedOption(click.Option):
+    """An option that also parses older spellings (``aliases``), which help and error
+    messages leave out: each concept has one name across the commands."""
+
+    def __init__(self, param_decls, aliases=(), **kwargs):
+        super().__init__([*param_decls, *aliases], **kwargs)
+        self.aliases = tuple(aliases)
+
+    def _shown(self, method, ctx):
+        opts = self.opts
+        self.opts = [o for o in opts if o not in self.aliases]
+        try:
+            return method(ctx)
+        finally:
+            self.opts = opts
+
+    def get_help_record(self, ctx):
+        return self._shown(super().get_help_record, ctx)
+
+    def get_error_hint(self, ctx):
+        return self._shown(super().get_error_hint, ctx)
+
+
+def output_option(dest: str, help: str, *, directory: bool = False, **kwargs):
+    """``--output``/``-o``: where a command writes (a file, or with ``directory`` a folder);
+    ``--out`` still parses."""
+    kind = click.Path(file_okay=False) if directory else click.Path(dir_okay=False)
+    return click.option("--output", "-o", dest, cls=AliasedOption, aliases=("--out",), type=kind,
+                        help=help, **kwargs)
+
+
+def time_option(dest: str = "t_end", **kwargs):
+    """``--time``: the simulated time [s]; ``--t-end`` still parses."""
+    return click.option("--time", dest, cls=AliasedOption, aliases=("--t-end",), type=float, **kwargs)
+
+
 # -- model parameters ---------------------------------------------------------------------
 
 def param_options(func):

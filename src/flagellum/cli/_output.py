@@ -39,5 +39,7 @@ def emit_table(rows: dict, title: str | None = None) -> None:
 
 
 def fmt(v) -> str:
-    """A table cell: floats to six significant digits."""
+    """A table cell: floats to six significant digits, sequences comma-separated."""
+    if isinstance(v, (tuple, list)):
+        return ", ".join(fmt(x) for x in v) or "-"
     return f"{v:.6g}" if isinstance(v, (float, np.floating)) else str(v)

@@ -7,7 +7,7 @@ import click
 from ._output import emit_json, emit_table, fmt
 
 
-@click.command()
+@click.command(short_help='Speed: wall seconds per simulated second')
 @click.option("--quick", is_flag=True, help="shorter windows (a rough number in seconds)")
 @click.option("--window", type=float, default=0.2, show_default=True,
               help="simulated time of the steady-state window [s]")

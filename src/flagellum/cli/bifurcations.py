@@ -2,22 +2,22 @@
 
 from __future__ import annotations
 
-import sys
-
 import click
 
+from .._progress import interactive
 from ..analysis.bifurcations import SCAN_SETTINGS
-from ._options import boundary_from_cli, boundary_options, param_options, params_from_cli
+from ._options import (boundary_from_cli, boundary_options, output_option, param_options,
+                       params_from_cli, time_option)
 from ._output import emit_json, emit_table, write_json
 
 
-@click.command("bifurcations")
+@click.command("bifurcations", short_help='Bifurcation torques M_c1 and M_c2 (Sec. 3.1)')
 @param_options
 @boundary_options(anchor=False)
 @click.option("--torque-range", default=None, metavar="LO:HI[:STEP]",
               help="torques of the coarse M_c2 scan [pN·µm] (default quick 3:5.5:0.5, full 2.5:5.5:0.25)")
-@click.option("--t-end", type=float, default=None,
-              help="simulated time per run after the torque step [s] (default quick 0.3, full 0.8)")
+@time_option(default=None,
+             help="simulated time per run after the torque step [s] (default quick 0.3, full 0.8)")
 @click.option("--quality", type=click.Choice(list(SCAN_SETTINGS)), default="quick", show_default=True)
 @click.option("--tol", type=float, default=None,
               help="stop bisecting when the M_c2 bracket is this narrow [pN·µm] (default quick 0.1, full 0.025)")
@@ -27,8 +27,7 @@ from ._output import emit_json, emit_table, write_json
               help="simulate at M_c1(1 ∓ DELTA), expecting aligned and buckled")
 @click.option("--mc1-only", is_flag=True, help="only M_c1 (linear stability, seconds)")
 @click.option("--workers", type=int, default=None, help="worker processes (default: all cores)")
-@click.option("--out", "-o", type=click.Path(dir_okay=False), default=None,
-              help="write the JSON result here (atomically, also after every run)")
+@output_option("out", "write the JSON result here (atomically, also after every run)", default=None)
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object (no progress bar)")
 def bifurcations(torque_range, t_end, quality, tol, hysteresis, confirm_mc1, mc1_only, workers,
                  out, as_json, **kwargs):
@@ -57,7 +56,7 @@ def bifurcations(torque_range, t_end, quality, tol, hysteresis, confirm_mc1, mc1
     res = find(params, boundary, quality=quality, torque_range=torque_range, t_end=t_end, tol=tol,
                hysteresis=hysteresis, mc2=not mc1_only, confirm_mc1=confirm_mc1,
                workers=workers if workers is not None else (os.cpu_count() or 1),
-               progress=not as_json and sys.stderr.isatty(), on_probe=partial)
+               progress=not as_json and interactive(), on_probe=partial)
     if out:
         write_json(out, {**res, "complete": True})
     if as_json:

@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import click
 
-from ._options import existing_file
+from ._options import existing_file, output_option
 from ._output import emit_json, emit_table
 
 
-@click.command("export")
+@click.command("export", short_help='Export a trajectory file for ParaView')
 @click.argument("file")
 @click.option("--format", "fmt", default="vtk", show_default=True,
               help="vtk: legacy .vtk + XML .vtp polydata per record, a .pvd collection and a .vtk.series index")
-@click.option("--out", "out_dir", type=click.Path(file_okay=False), required=True, help="output directory")
+@output_option("out_dir", "output directory", directory=True, required=True)
 @click.option("--every", type=int, default=1, show_default=True, help="export every K-th record")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
 def export(file, fmt, out_dir, every, as_json):

@@ -7,7 +7,7 @@ import click
 from ._output import emit_json
 
 
-@click.command()
+@click.command(short_help='Parameters and provenance of an output file')
 @click.argument("file", type=click.Path(dir_okay=False))
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
 def info(file, as_json):

@@ -12,19 +12,21 @@ from ._output import emit_json, emit_table
 
 
 def _title(data) -> str:
-    """Torque and regime of the run (the regime of its last half, as ``flagellum demo``)."""
-    from ..analysis.regimes import classify
+    """Torque and regime of the run (of its last half, as ``Trajectory.summary()``: a run
+    that has not settled says ``transient``)."""
+    from ..analysis.regimes import summarize_run
 
     parts = []
     if len(data["torque"]):
         parts.append(f"M = {float(data['torque'][-1]):g} pN·µm")
     radius = data["attrs"].get("helix_radius")
     if radius is not None and len(data["t"]) >= 2:
-        parts.append(classify(data["t"], data["thrust"], data["positions"], float(radius)))
+        parts.append(summarize_run(data["t"], data["thrust"], data["motor_angle"], data["positions"],
+                                   data["energy"], float(radius)).regime)
     return " · ".join(parts)
 
 
-@click.command("render")
+@click.command("render", short_help="Movie and snapshots of a trajectory file")
 @click.argument("file")
 @click.option("--movie", type=click.Path(dir_okay=False), default=None,
               help="write an MP4 movie here (and its last frame as a PNG poster next to it)")

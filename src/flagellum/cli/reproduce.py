@@ -6,13 +6,14 @@ from pathlib import Path
 
 import click
 
+from ._options import output_option
 from ._output import emit_json, emit_table
 
 
-@click.command("reproduce")
+@click.command("reproduce", short_help="Reproduce the paper's figures (fig3 … fig8)")
 @click.argument("figure")
-@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="flagellum-reproduce",
-              show_default=True, help="output directory (one subdirectory per figure)")
+@output_option("out_dir", "output directory (one subdirectory per figure)", directory=True,
+               default="flagellum-reproduce", show_default=True)
 @click.option("--quality", default="quick", show_default=True,
               help="quick (CI-size runs) or full (publication quality)")
 @click.option("--json", "as_json", is_flag=True, help="print the headline numbers as JSON")

@@ -8,7 +8,7 @@ from ._options import param_options, params_from_cli
 from ._output import emit_json, emit_table
 
 
-@click.command()
+@click.command(short_help='Rigid-helix resistive-force theory')
 @param_options
 @click.option("--critical-force", type=float, default=1.0, show_default=True,
               help="F_c1 [pN] for the critical-torque line of the paper's Eq. (16)")

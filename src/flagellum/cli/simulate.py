@@ -7,16 +7,16 @@ import math
 import click
 
 from ._options import (boundary_from_cli, boundary_options, hydro_from_cli, hydro_options,
-                       motor_from_cli, motor_options, param_options, params_from_cli,
-                       solver_from_cli, solver_options)
+                       motor_from_cli, motor_options, output_option, param_options,
+                       params_from_cli, solver_from_cli, solver_options, time_option)
 from ._output import emit_json, emit_table
 
 
-@click.command()
+@click.command(short_help='Simulate the filament: averages and regime')
 @param_options
 @motor_options
 @boundary_options(anchor=True)
-@click.option("--time", "t_end", type=float, default=0.3, show_default=True, help="simulated time [s]")
+@time_option(default=0.3, show_default=True, help="simulated time [s]")
 @click.option("--save-every", type=float, default=None, help="save interval [s] (default time/300)")
 @click.option("--average-from", type=float, default=None,
               help="average observables from this time on [s] (default: last half)")
@@ -24,7 +24,7 @@ from ._output import emit_json, emit_table
 @click.option("--seed", type=int, default=0, show_default=True, help="random seed (thermal runs)")
 @solver_options
 @hydro_options
-@click.option("--output", "-o", type=click.Path(dir_okay=False), default=None, help="HDF5 trajectory file")
+@output_option("output", "HDF5 trajectory file", default=None)
 @click.option("--checkpoint-every", type=float, default=None,
               help="write records and a checkpoint every T simulated seconds (with --output)")
 @click.option("--resume", "resume_file", type=click.Path(dir_okay=False), default=None,

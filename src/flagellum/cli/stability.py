@@ -9,7 +9,7 @@ from ._options import boundary_from_cli, boundary_options, param_options, params
 from ._output import emit_json, emit_table
 
 
-@click.command("stability")
+@click.command("stability", short_help='Linear stability of the aligned filament')
 @param_options
 @boundary_options(anchor=False)
 @click.option("--torque", type=float, required=True, help="motor torque M [pN·µm], nonzero")
@@ -34,7 +34,7 @@ def stability(torque, n_eigs, as_json, **kwargs):
         emit_table(out, "Aligned state: Ω [rad/s], thrust [pN], v [µm/s], eigenvalues [1/s]")
 
 
-@click.command("critical-torque")
+@click.command("critical-torque", short_help='Buckling threshold M_c1, the root of λ(M)')
 @param_options
 @boundary_options(anchor=False)
 @click.option("--bracket", type=float, nargs=2, default=(0.5, 2.0), show_default=True,

@@ -6,7 +6,7 @@ import click
 
 from ..errors import ParameterError
 from ..sweep import FALLBACK_PARAMETERS, PARAMETERS, Sweep, parse_values, run_sweep
-from ._options import PARAM_HELP
+from ._options import PARAM_HELP, AliasedOption, output_option
 from ._output import emit_json, emit_table
 
 _HELP = {
@@ -32,19 +32,18 @@ _HELP = {
 def parameter_options(func):
     """One option per sweepable parameter taking ``start:stop[:step]``, ``a,b,c`` or a value."""
     for name in reversed(PARAMETERS):
-        flags = ["--" + name.replace("_", "-")] + (["--t-end"] if name == "time" else [])
-        func = click.option(*flags, name, type=str, default=None, metavar="RANGE",
-                            help=_HELP[name])(func)
+        func = click.option("--" + name.replace("_", "-"), name, type=str, default=None,
+                            metavar="RANGE", help=_HELP[name], cls=AliasedOption,
+                            aliases=("--t-end",) if name == "time" else ())(func)
     return func
 
 
-@click.command("sweep")
+@click.command("sweep", short_help='A grid of simulations into one dataset')
 @click.argument("config", required=False, type=click.Path(dir_okay=False))
 @parameter_options
-@click.option("--out", "-o", required=True, type=click.Path(dir_okay=False),
-              help="output HDF5 dataset (e.g. results.nc)")
-@click.option("--resume", is_flag=True, help="keep the finished points of --out, compute the rest")
-@click.option("--overwrite", is_flag=True, help="replace an existing --out")
+@output_option("out", "output HDF5 dataset (e.g. results.nc)", required=True)
+@click.option("--resume", is_flag=True, help="keep the finished points of --output, compute the rest")
+@click.option("--overwrite", is_flag=True, help="replace an existing --output")
 @click.option("--retry-failed", is_flag=True, help="resume, computing the failed points again")
 @click.option("--fallback", multiple=True, metavar="NAME=VALUE",
               help="solver setting for retries (" + ", ".join(FALLBACK_PARAMETERS) + "; repeatable), "

@@ -14,11 +14,11 @@ import numpy as np
 from ..errors import ParameterError
 from ..paper import HELICES
 from ..params import check_range, check_real
-from ._options import param_options, params_from_cli
+from ._options import output_option, param_options, params_from_cli, time_option
 from ._output import emit_json, emit_table
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(context_settings={"help_option_names": ["-h", "--help"]}, short_help='Analytical buckling theory of the helical rod')
 def theory():
     """Analytical buckling theory of the helical rod (paper Sec. 4, App. B and C)."""
 
@@ -38,7 +38,7 @@ def _count(name: str, value: int, lo: int, hi: int) -> int:
     return value
 
 
-@theory.command()
+@theory.command(short_help='Critical values of the linearised buckling problem')
 @click.option("--m-hat", type=float, default=0.0, show_default=True,
               help="torque m̂ = M L0/A_eff (linear profile: applied at the base)")
 @click.option("--f-par", type=float, default=0.0, show_default=True,
@@ -81,10 +81,10 @@ def buckling(m_hat, f_par, f_perp, chi, base, top, force_profile, torque_profile
             click.echo(f"  {z:6.3f} {x: .6f} {y: .6f}")
 
 
-@theory.command()
+@theory.command(short_help='Critical manifold and buckling curves (Sec. 4)')
 @param_options
-@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="flagellum-theory",
-              show_default=True, help="output directory for CSV, JSON and PNG")
+@output_option("out_dir", "output directory for CSV, JSON and PNG", directory=True,
+               default="flagellum-theory", show_default=True)
 @click.option("--m-max", type=float, default=20.0, show_default=True, help="largest m̂ of the grid")
 @click.option("--m-steps", type=int, default=41, show_default=True)
 @click.option("--f-par-max", type=float, default=120.0, show_default=True,
@@ -127,13 +127,12 @@ def manifold(out_dir, m_max, m_steps, f_par_max, f_par_steps, inv_a_max, inv_a_s
         emit_table(rows, f"Critical manifold written to {out_dir}")
 
 
-@theory.command("rigid-helix")
+@theory.command("rigid-helix", short_help='Precession of a rigid helix under a torque')
 @param_options
 @click.option("--torque", type=float, default=1.0, show_default=True, help="|M| [pN µm]")
 @click.option("--tilt", type=float, default=30.0, show_default=True,
               help="initial angle between helix axis and torque [deg]")
-@click.option("--time", "t_end", type=float, default=None,
-              help="duration [s] (default: two precession periods)")
+@time_option(default=None, help="duration [s] (default: two precession periods)")
 @click.option("--origin", default="center", show_default=True, help="center | end of the helix")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
 def rigid_helix(torque, tilt, t_end, origin, as_json, **kwargs):
@@ -184,7 +183,7 @@ def effective_rigidity_summary(params) -> dict:
                for name, (k, t) in HELICES.items()}}
 
 
-@theory.command("effective-rigidity")
+@theory.command("effective-rigidity", short_help="Effective bending rigidity A_eff (App. C)")
 @param_options
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
 @click.option("--measure", is_flag=True,

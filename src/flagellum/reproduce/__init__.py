@@ -1,4 +1,4 @@
-"""Reproduce the figures of Vogel & Stark (2012): ``flagellum reproduce FIG --out DIR``.
+"""Reproduce the figures of Vogel & Stark (2012): ``flagellum reproduce FIG --output DIR``.
 
 Each target writes into ``DIR/<fig>/`` the figure as PNG and PDF, the data behind it (CSV and
 HDF5) and ``comparison.md`` — every number the paper states for that figure next to ours,
@@ -35,7 +35,7 @@ def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality:
     check_quality(quality)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
-        raise ParameterError("out", str(out), "a directory")
+        raise ParameterError("output", str(out), "a directory")
     cache = Cache() if cache is None else cache
     if echo:
         cache.log = True

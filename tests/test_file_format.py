@@ -120,9 +120,10 @@ def test_a_file_of_the_earlier_layout_still_reads(run_file, tmp_path):
     assert export_trajectory(old, tmp_path / "vtk", every=3)["frames"] == 3
 
 
-def test_a_running_file_reads_from_its_parts(tmp_path):
+def test_a_running_file_reads_from_its_parts_and_resumes(tmp_path):
     """Killed after its first checkpoint: xarray sees the (empty) main file with its
-    dimensions; open_trajectory gives the records of the parts."""
+    dimensions; open_trajectory gives the records of the parts; with a main file of the
+    earlier layout, the run resumes to the uninterrupted result."""
     import os
     import signal
 
@@ -148,6 +149,21 @@ def test_a_running_file_reads_from_its_parts(tmp_path):
     _assert_described(ds)
     got = open_trajectory(out)
     assert got.sizes["time"] == 5 and got.attrs["status"] == "running"
+    # a run killed while its main file had the earlier layout resumes into the new one
+    attrs = read_trajectory(out, records=False)["attrs"]
+    with h5py.File(out, "w") as f:
+        f.attrs.update(attrs)
+        for name, (shape, dtype) in RECORD_FIELDS.items():
+            f.create_dataset(name, shape=(0, *shape(N)), maxshape=(None, *shape(N)), dtype=dtype)
+    assert read_trajectory(out)["t"].shape == (5,)  # from the parts
+    Simulator.resume(out, progress=False)
+    ref = _sim().run(0.01, save_every=1e-3, checkpoint_every=0.004, output=tmp_path / "ref.h5",
+                     progress=False)
+    done = _open(out)
+    _assert_described(done)
+    assert done.attrs["status"] == "complete"
+    np.testing.assert_array_equal(done.positions.values, ref.positions)
+    np.testing.assert_array_equal(done.time.values, ref.t)
 
 
 def test_netcdf_library_reads_a_trajectory(run_file):

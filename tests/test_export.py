@@ -85,7 +85,8 @@ def test_vtk_export_reads_back(run_file, tmp_path, capsys):
     assert out["frames"] == 6 and out["points_per_frame"] == 11  # records 0, 5, …, 25
     files = sorted((tmp_path / "vtk").glob("frame_*"))
     assert [f.suffix for f in files] == [".vtp"] * 6  # each frame once
-    assert sorted(p.name for p in (tmp_path / "vtk").iterdir()) == sorted([*(f.name for f in files), "run.pvd"])
+    written = sorted(p.name for p in (tmp_path / "vtk").iterdir())
+    assert written == sorted([*(f.name for f in files), "run.pvd"])
     for f in files:
         k = int(f.stem.split("_")[1])
         head = f.read_bytes()[:400].decode("latin-1")

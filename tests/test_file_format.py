@@ -60,7 +60,8 @@ def test_xarray_opens_a_trajectory_with_dimensions_and_units(run_file):
     path, tr = run_file
     ds = _open(path)
     _assert_described(ds)
-    assert dict(ds.sizes) == {"time": 7, "bead": N + 1, "xyz": 3, "state": len(read_trajectory(path)["final_state"])}
+    n_state = len(read_trajectory(path)["final_state"])
+    assert dict(ds.sizes) == {"time": 7, "bead": N + 1, "xyz": 3, "state": n_state}
     assert ds.positions.dims == ("time", "bead", "xyz") and ds.angles.dims == ("time", "bead")
     assert ds.hook_tangent.dims == ds.anchor_force.dims == ("time", "xyz")
     for name, (dims, units, _) in RECORD_META.items():

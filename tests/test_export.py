@@ -1,4 +1,4 @@
-"""render / export: movie frame count, ParaView (VTK) export read back, CLI errors."""
+"""render / export: movie frame count, ParaView (VTK) export read back with VTK, CLI errors."""
 
 import json
 import xml.etree.ElementTree as ET
@@ -9,7 +9,7 @@ from conftest import assert_one_line_error
 
 from flagellum import Filament, Params
 from flagellum.cli import run
-from flagellum.export import export_trajectory, export_vtk, read_legacy_vtk
+from flagellum.export import export_trajectory, export_vtk
 from flagellum.motor import Motor
 from flagellum.simulator import Simulator
 
@@ -27,7 +27,6 @@ def _one_line_exit_2(args, capsys):
     code = run(args)
     err = capsys.readouterr().err
     assert_one_line_error(code, err)
-    return err
     return err
 
 
@@ -54,7 +53,29 @@ def test_movie_frames_capped_by_records(run_file, tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["frames"] == 26
 
 
+def _read_vtp(path):
+    """Points, polylines, point data and TIME of a ``.vtp`` file, read by VTK's own reader."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
+
+    r = vtkXMLPolyDataReader()
+    r.SetFileName(str(path))
+    r.Update()
+    out = r.GetOutput()
+    pd = out.GetPointData()
+    lines = out.GetLines()
+    return {"points": vtk_to_numpy(out.GetPoints().GetData()),
+            "lines": np.split(vtk_to_numpy(lines.GetConnectivityArray()),
+                              vtk_to_numpy(lines.GetOffsetsArray())[1:-1]),
+            "point_data": {pd.GetArrayName(i): vtk_to_numpy(pd.GetArray(i))
+                           for i in range(pd.GetNumberOfArrays())},
+            "TIME": vtk_to_numpy(out.GetFieldData().GetArray("TIME"))}
+
+
 def test_vtk_export_reads_back(run_file, tmp_path, capsys):
+    """Binary VTK XML files, one per exported record and no other, read back with VTK
+    give the positions, the polyline and the point data."""
+    pytest.importorskip("vtkmodules.vtkIOXML")
     from flagellum.io import read_trajectory
 
     data = read_trajectory(run_file)
@@ -62,62 +83,65 @@ def test_vtk_export_reads_back(run_file, tmp_path, capsys):
                 "--every", "5", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["frames"] == 6 and out["points_per_frame"] == 11  # records 0, 5, …, 25
-    files = sorted((tmp_path / "vtk").glob("frame_*.vtk"))
-    assert len(files) == 6
+    files = sorted((tmp_path / "vtk").glob("frame_*"))
+    assert [f.suffix for f in files] == [".vtp"] * 6  # each frame once
+    written = sorted(p.name for p in (tmp_path / "vtk").iterdir())
+    assert written == sorted([*(f.name for f in files), "run.pvd"])
     for f in files:
         k = int(f.stem.split("_")[1])
-        d = read_legacy_vtk(f)
+        head = f.read_bytes()[:400].decode("latin-1")
+        assert 'format="appended"' in head and "vtkZLibDataCompressor" in head  # binary, compressed
+        d = _read_vtp(f)
         assert d["points"].shape == (11, 3)
-        np.testing.assert_allclose(d["points"], data["positions"][k], rtol=1e-8, atol=1e-12)
+        np.testing.assert_array_equal(d["points"], data["positions"][k])
         assert len(d["lines"]) == 1 and list(d["lines"][0]) == list(range(11))
-        assert d["field_data"]["TIME"] == pytest.approx(data["t"][k], rel=1e-10, abs=1e-15)
+        assert d["TIME"][0] == data["t"][k]
         assert set(d["point_data"]) == {"arc_length", "curvature", "material_angle", "tangent"}
         assert d["point_data"]["arc_length"][-1] == pytest.approx(2.0, rel=0.02)
-        np.testing.assert_allclose(d["point_data"]["material_angle"], data["angles"][k], atol=1e-8)
-        # the XML twin
-        root = ET.parse(f.with_suffix(".vtp")).getroot()
-        piece = root.find("PolyData/Piece")
-        assert piece.get("NumberOfPoints") == "11"
-        pts = np.array(piece.find("Points/DataArray").text.split(), float).reshape(-1, 3)
-        np.testing.assert_allclose(pts, data["positions"][k], rtol=1e-8, atol=1e-12)
-    # the indexes: PVD (XML files) and the .vtk.series (legacy files)
+        assert d["point_data"]["tangent"].shape == (11, 3)
+        np.testing.assert_array_equal(d["point_data"]["material_angle"], data["angles"][k])
     pvd = ET.parse(tmp_path / "vtk" / "run.pvd").getroot()
     ds = pvd.findall("Collection/DataSet")
-    assert [d.get("file") for d in ds] == [f.with_suffix(".vtp").name for f in files]
-    assert float(ds[-1].get("timestep")) == pytest.approx(data["t"][-1])
-    series = json.loads((tmp_path / "vtk" / "run.vtk.series").read_text())
-    assert [e["name"] for e in series["files"]] == [f.name for f in files]
-
-
-def test_vtk_export_reads_back_with_vtk(run_file, tmp_path):
-    """VTK's own readers (legacy and XML), when the ``vtk`` package is installed (meshio 5.3
-    cannot be used: it does not read legacy POLYDATA)."""
-    vtk = pytest.importorskip("vtk")
-    res = export_trajectory(run_file, tmp_path, "vtk", every=10)
-    for f_vtk, f_vtp in zip(res["vtk"], res["vtp"]):
-        r = vtk.vtkPolyDataReader()
-        r.SetFileName(str(f_vtk))
-        r.ReadAllScalarsOn()
-        r.ReadAllVectorsOn()
-        r.ReadAllFieldsOn()
-        r.Update()
-        x = vtk.vtkXMLPolyDataReader()
-        x.SetFileName(str(f_vtp))
-        x.Update()
-        for out in (r.GetOutput(), x.GetOutput()):
-            assert out.GetNumberOfPoints() == 11 and out.GetNumberOfLines() == 1
-            assert out.GetPointData().GetArray("curvature") is not None
-            assert out.GetFieldData().GetArray("TIME") is not None
+    assert [d.get("file") for d in ds] == [f.name for f in files]
+    assert [float(d.get("timestep")) for d in ds] == list(data["t"][[0, 5, 10, 15, 20, 25]])
 
 
 def test_export_vtk_function_and_last_record_always_included(tmp_path):
+    pytest.importorskip("vtkmodules.vtkIOXML")
     t = np.linspace(0, 1, 7)
     pos = np.zeros((7, 4, 3))
     pos[:, :, 2] = np.arange(4) * 0.2
     res = export_vtk(t, pos, tmp_path, every=4)
     assert res["frames"] == 3  # records 0, 4 and the last one (6)
-    assert read_legacy_vtk(res["vtk"][-1])["field_data"]["TIME"] == pytest.approx(1.0)
-    assert np.all(read_legacy_vtk(res["vtk"][0])["point_data"]["curvature"] == 0)
+    assert _read_vtp(res["vtp"][-1])["TIME"][0] == 1.0
+    assert np.all(_read_vtp(res["vtp"][0])["point_data"]["curvature"] == 0)
+
+
+def test_export_without_vtk_is_one_line_naming_it(run_file, tmp_path, capsys, monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "vtkmodules.vtkIOXML", None)
+    err = _one_line_exit_2(["export", str(run_file), "--out", str(tmp_path / "o")], capsys)
+    assert "needs the package 'vtk'" in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_failed_export_leaves_no_frames(run_file, tmp_path, monkeypatch):
+    pytest.importorskip("vtkmodules.vtkIOXML")
+    import flagellum.export as ex
+
+    real, calls = ex.write_vtp, []
+
+    def fail_third(path, data):
+        calls.append(path)
+        if len(calls) == 3:
+            raise OSError(28, "No space left on device")
+        real(path, data)
+
+    monkeypatch.setattr(ex, "write_vtp", fail_third)
+    with pytest.raises(OSError):
+        export_trajectory(run_file, tmp_path / "o", "vtk", every=5)
+    assert list((tmp_path / "o").iterdir()) == []
 
 
 @pytest.mark.parametrize("args", [

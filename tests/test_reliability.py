@@ -211,7 +211,7 @@ def test_sigkill_and_resume_is_bit_identical(tmp_path):
     assert r2.returncode == 0, r2.stderr
     assert sorted(os.listdir(tmp_path)) == ["ref.h5", "run.h5"]
     with h5py.File(ref) as a, h5py.File(out) as b:
-        assert a["t"].shape == b["t"].shape
+        assert a["time"].shape == b["time"].shape
         for name in ("positions", "thrust", "angles", "motor_angle"):
             assert np.array_equal(a[name][()], b[name][()]), name
     s1, s2 = json.loads(r.stdout), json.loads(r2.stdout)

@@ -24,7 +24,7 @@ _EXPORTS = {
     "Params": "params", "Filament": "params", "Fluid": "params", "Friction": "params",
     "Motor": "motor", "Boundary": "motor",
     "Simulator": "simulator", "SolverOptions": "simulator",
-    "Trajectory": "trajectory",
+    "Trajectory": "trajectory", "open_trajectory": "trajectory",
     "Helix": "helix", "discrete_helix": "helix",
     "critical_torque": "analysis.stability", "linear_stability": "analysis.stability",
     "relative_equilibrium": "analysis.stability",

@@ -1,4 +1,5 @@
-"""File output: atomic writes, so that no half-written file is ever left behind."""
+"""File output: atomic writes, so that no half-written file is ever left behind; CSV;
+provenance; the HDF5 (netCDF-4) trajectory files."""
 
 from __future__ import annotations
 
@@ -71,12 +72,18 @@ def write_csv(path: str | Path, columns: dict, units: dict | None = None) -> Pat
     return Path(path)
 
 
-# -- trajectories (HDF5) ----------------------------------------------------------------
+# -- trajectories (HDF5 in the netCDF-4 layout) --------------------------------------------
 #
 # Crash safety: a trajectory file is never modified in place. While a run is going, each
 # checkpoint interval's records go to a new part file ``<output>.parts/NNNNNNNN.h5``, written
 # atomically; :func:`finish_trajectory` writes the main file anew (atomically) from its
 # attributes and all parts. A kill at any instant therefore leaves whole files only.
+#
+# The main file is a netCDF-4 file (an HDF5 file whose dimensions are HDF5 dimension
+# scales): ``xarray.open_dataset(path, engine="h5netcdf")`` and netCDF tools see the named
+# dimensions time, bead, xyz (and state), their coordinates, CF ``units`` and ``long_name``
+# on every variable, and the run's parameters as global attributes. Part files are plain
+# HDF5 (one dataset per record field), internal to a running run.
 
 #: per-record datasets: name → (shape of one record as a function of n, dtype)
 RECORD_FIELDS = {
@@ -93,43 +100,107 @@ RECORD_FIELDS = {
     "frame_angle": (lambda n: (), "f8"),
 }
 
+#: the record fields in a file: name → (dimensions of one record, CF units, long_name); the
+#: first dimension of every field is ``time``. Units are UDUNITS strings (µm, pN, s, rad).
+RECORD_META = {
+    "t": ((), "s", "simulated time"),
+    "positions": (("bead", "xyz"), "um", "bead position in the lab frame (bead 0: at the motor)"),
+    "angles": (("bead",), "rad", "material angle about the tangent: hook frame at bead 0, "
+                                 "bond i (from bead i-1 to bead i) at bead i"),
+    "hook_tangent": (("xyz",), "1", "unit tangent of the hook frame"),
+    "thrust": ((), "pN", "force of the filament on its anchor along e_z"),
+    "anchor_force": (("xyz",), "pN", "elastic force on bead 0"),
+    "motor_speed": ((), "rad/s", "rotation rate of the hook frame about e_z"),
+    "motor_angle": ((), "rad", "accumulated (unwrapped) rotation of the hook frame about e_z"),
+    "torque": ((), "pN um", "motor torque"),
+    "energy": ((), "pN um", "elastic energy of the filament"),
+    "frame_angle": ((), "rad", "angle of the co-rotating computational frame about e_z"),
+}
+#: the time coordinate's name in a file (``t`` in the records)
+TIME = "time"
+#: coordinate variables other than time: name → (values for n segments, attributes)
+COORDINATES = {
+    "bead": (lambda n: np.arange(n + 1), {"units": "1", "long_name": "bead index (0: at the motor)"}),
+    "xyz": (lambda n: np.array(["x", "y", "z"]),
+            {"long_name": "Cartesian component in the lab frame (e_z: the motor axis)"}),
+}
+TIME_ATTRS = {"standard_name": "time", "axis": "T"}
+#: ``final_state``: the simulator's state vector (no single unit: µm and rad)
+STATE_ATTRS = {"long_name": "simulator state at the end of the run (bead 0's position, then "
+                            "position and material angle of each further bead: um and rad)"}
+#: global attribute that names the conventions followed
+CONVENTIONS = {"Conventions": "CF-1.8"}
+#: HDF5 dimension-scale name of a netCDF-4 dimension without a coordinate variable
+_NOT_A_VARIABLE = "This is a netCDF dimension but not a netCDF variable."
+
 #: ``status`` of a main file whose records are still in its parts
 RUNNING = "running"
 
 
 def provenance() -> dict:
-    """Package version, git revision (if in a checkout), host and time."""
+    """Package version, git revision, host and time: the revision of the checkout the
+    package runs from (editable install), else the one it was built from."""
     import datetime
     import platform
-    import subprocess
 
-    from ._version import __version__
+    from ._version import __version__, git_revision
 
-    rev = ""
-    try:
-        rev = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                             timeout=5, cwd=Path(__file__).parent).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        pass
-    return {"version": __version__, "git_revision": rev, "host": platform.node(),
+    return {"version": __version__, "git_revision": git_revision(), "host": platform.node(),
             "python": platform.python_version(),
             "created": datetime.datetime.now(datetime.timezone.utc).isoformat()}
 
 
+def netcdf_attrs(attrs: dict) -> dict:
+    """``attrs`` as netCDF attributes: booleans as 0/1 (netCDF has no boolean type)."""
+    return {k: np.int8(v) if isinstance(v, (bool, np.bool_)) else v for k, v in attrs.items()}
+
+
+def _stored(name: str) -> str:
+    """A record field's dataset name in a main file."""
+    return TIME if name == "t" else name
+
+
 def _init_datasets(f, n: int, attrs: dict) -> None:
-    for k, v in attrs.items():
-        f.attrs[k] = v
+    import h5py
+
+    f.attrs.update(netcdf_attrs({**CONVENTIONS, **attrs}))
     for name, (shape, dt) in RECORD_FIELDS.items():
         s = shape(n)
-        f.create_dataset(name, shape=(0,) + s, maxshape=(None,) + s, dtype=dt,
-                         chunks=(max(1, min(1024, 65536 // max(1, int(np.prod(s))))),) + s)
+        ds = f.create_dataset(_stored(name), shape=(0,) + s, maxshape=(None,) + s, dtype=dt,
+                              chunks=(max(1, min(1024, 65536 // max(1, int(np.prod(s))))),) + s)
+        _, units, long_name = RECORD_META[name]
+        ds.attrs.update({"units": units, "long_name": long_name, **(TIME_ATTRS if name == "t" else {})})
+    for name, (values, coord_attrs) in COORDINATES.items():
+        v = values(n)
+        if v.dtype.kind == "U":
+            f.create_dataset(name, data=v.astype(object), dtype=h5py.string_dtype())
+        else:
+            f.create_dataset(name, data=v)
+        f[name].attrs.update(coord_attrs)
+    for dim in (TIME, *COORDINATES):
+        f[dim].make_scale(dim)
+    for name in RECORD_FIELDS:
+        if name != "t":
+            for axis, dim in enumerate((TIME, *RECORD_META[name][0])):
+                f[name].dims[axis].attach_scale(f[dim])
+
+
+def _write_state(f, state) -> None:
+    """``final_state`` along the netCDF-4 dimension ``state`` (one without coordinates)."""
+    state = np.asarray(state, float)
+    f.create_dataset("state", shape=state.shape, dtype=">f4")
+    f["state"].make_scale(f"{_NOT_A_VARIABLE}{len(state):10d}")
+    f["final_state"] = state
+    f["final_state"].attrs.update(STATE_ATTRS)
+    f["final_state"].dims[0].attach_scale(f["state"])
 
 
 def _append(f, records: dict) -> None:
-    n_old, m = f["t"].shape[0], len(records["t"])
+    n_old, m = f[TIME].shape[0], len(records["t"])
     for name in RECORD_FIELDS:
-        f[name].resize(n_old + m, axis=0)
-        f[name][n_old:] = records[name]
+        ds = f[_stored(name)]
+        ds.resize(n_old + m, axis=0)
+        ds[n_old:] = records[name]
 
 
 def create_trajectory(path, n: int, attrs: dict) -> None:
@@ -185,6 +256,11 @@ def drop_temps(path) -> None:
             p.unlink(missing_ok=True)
 
 
+def _n_segments(f) -> int:
+    """Segments of a main file (of this layout or the earlier one without dimensions)."""
+    return f["angles"].shape[1] - 1
+
+
 def finish_trajectory(path, tail: dict | None = None, final_state=None,
                       attrs: dict | None = None) -> None:
     """Atomically rewrite ``path`` with its attributes updated by ``attrs``, the records of
@@ -195,7 +271,7 @@ def finish_trajectory(path, tail: dict | None = None, final_state=None,
     import h5py
 
     with h5py.File(path, "r") as f:
-        old, n = dict(f.attrs), f["angles"].shape[1] - 1
+        old, n = dict(f.attrs), _n_segments(f)
     with atomic_path(path) as tmp:
         with h5py.File(tmp, "w") as f:
             _init_datasets(f, n, {**old, **(attrs or {})})
@@ -204,16 +280,17 @@ def finish_trajectory(path, tail: dict | None = None, final_state=None,
                     _append(f, {k: part[k][()] for k in RECORD_FIELDS})
             if tail is not None and len(tail["t"]):
                 t = np.asarray(tail["t"], float)
-                new = t > f["t"][-1] if f["t"].shape[0] else np.ones(len(t), bool)
+                new = t > f[TIME][-1] if f[TIME].shape[0] else np.ones(len(t), bool)
                 _append(f, {k: np.asarray(v, float)[new] for k, v in tail.items()})
             if final_state is not None:
-                f["final_state"] = final_state
+                _write_state(f, final_state)
 
 
 def read_trajectory(path, records: bool = True) -> dict:
     """All records and attributes of a trajectory file (of a running or killed run: from
-    its parts). A file without records (no ``t``), or ``records=False``, yields the
-    attributes only."""
+    its parts). A file without records (no ``time``), or ``records=False``, yields the
+    attributes only. Reads files of this layout and of the earlier one (datasets without
+    dimensions, the times in ``t``)."""
     import h5py
 
     from .errors import ParameterError
@@ -223,11 +300,14 @@ def read_trajectory(path, records: bool = True) -> dict:
 
     try:
         with h5py.File(path, "r") as f, ExitStack() as stack:
-            out = {"attrs": dict(f.attrs)}
+            out = {"attrs": {k: v for k, v in f.attrs.items() if k not in CONVENTIONS}}
             parts = part_files(path) if str(out["attrs"].get("status", "")) == RUNNING else []
-            sources = [stack.enter_context(h5py.File(p, "r")) for p in parts] or [f]
-            if records and "t" in f:
-                out.update({k: np.concatenate([s[k][()] for s in sources]) for k in RECORD_FIELDS})
+            sources = [stack.enter_context(h5py.File(p, "r")) for p in parts]
+            old_layout = "t" in f and TIME not in f
+            if records and (old_layout or TIME in f):
+                name = (lambda k: k) if sources or old_layout else _stored  # parts: plain names
+                out.update({k: np.concatenate([s[name(k)][()] for s in sources or [f]])
+                            for k in RECORD_FIELDS})
             if records and "final_state" in f:
                 out["final_state"] = f["final_state"][()]
     except (OSError, KeyError, ValueError, TypeError) as exc:

@@ -12,7 +12,9 @@ Failed points count as finished; ``retry_failed=True`` computes them again, and 
 ``fallback`` of solver settings (e.g. ``{"method": "implicit"}``) is used for every retry,
 also at once for a point that fails in the same call.
 
-File layout (HDF5, netCDF-4-like: coordinates are HDF5 dimension scales):
+File layout (HDF5 in the netCDF-4 layout: coordinates are HDF5 dimension scales, which
+``xarray.open_dataset(path, engine="h5netcdf")`` reads; CF ``units`` and ``long_name`` on
+every variable and coordinate, :data:`VARIABLE_ATTRS`, :data:`PARAMETER_ATTRS`):
 
 * one 1-D dataset per swept parameter (the coordinates, named ``dims`` in the attributes),
 * one grid-shaped dataset per variable (:data:`VARIABLES`: the :class:`Summary` fields,
@@ -63,6 +65,67 @@ _OPTIONAL = {"fallback", "swimming_speed"}
 FALLBACK_PARAMETERS = ("method", "rtol", "dt")
 _FILL = {"f8": math.nan, "i8": -1, "str": ""}
 FORMAT = "flagellum-sweep"
+
+#: CF attributes of the variables: name → (units, long_name); text variables have no units
+VARIABLE_ATTRS: dict[str, tuple[str | None, str]] = {
+    "thrust_mean": ("pN", "mean thrust (force of the filament on its anchor along e_z)"),
+    "thrust_std": ("pN", "standard deviation of the thrust"),
+    "thrust_err": ("pN", "standard error of the mean thrust (block averages)"),
+    "omega_mean": ("rad/s", "mean rotation rate of the motor (slope of the unwrapped hook angle)"),
+    "chi_mean": ("rad/s", "mean precession rate of the filament about the motor axis"),
+    "end_to_end_mean": ("um", "mean end-to-end distance"),
+    "end_to_end_std": ("um", "standard deviation of the end-to-end distance"),
+    "energy_final": ("pN um", "elastic energy at the end of the run"),
+    "centroid_offset": ("um", "mean distance of the centroid from the motor axis"),
+    "swimming_speed": ("um/s", "mean velocity of bead 0 along e_z"),
+    "t_from": ("s", "start of the averaging window"),
+    "t_end": ("s", "end of the run"),
+    "samples": ("1", "records in the averaging window"),
+    "regime": (None, "regime of the run (flagellum.analysis.regimes)"),
+    "steps": ("1", "integrator steps"),
+    "wall_seconds": ("s", "wall-clock time of the point in its worker"),
+    "status": (None, "ok, or the one-line error of a failed point"),
+    "fallback": (None, "JSON of the fallback solver settings that produced the point (empty: none)"),
+    "key": (None, "stable key of the point: JSON of its swept values (empty: not finished)"),
+}
+#: CF attributes of the sweepable parameters (the coordinates): name → (units, long_name)
+PARAMETER_ATTRS: dict[str, tuple[str | None, str]] = {
+    "kappa0": ("1/um", "spontaneous curvature kappa0"),
+    "tau0": ("1/um", "spontaneous torsion |tau0|"),
+    "handedness": (None, "handedness of the helix"),
+    "bend_rigidity": ("pN um^2", "bending rigidity A"),
+    "twist_rigidity": ("pN um^2", "twist rigidity C"),
+    "stretch_modulus": ("pN", "stretching modulus K"),
+    "length": ("um", "contour length L"),
+    "segment_length": ("um", "bond length h"),
+    "viscosity": ("pN s/um^2", "viscosity of the fluid"),
+    "filament_radius": ("um", "filament radius"),
+    "kT": ("pN um", "thermal energy kT"),
+    "friction": (None, "friction model"),
+    "gamma_par": ("pN s/um^2", "parallel friction coefficient per length"),
+    "gamma_perp": ("pN s/um^2", "perpendicular friction coefficient per length"),
+    "gamma_rot": ("pN s", "rotational friction coefficient per length"),
+    "torque": ("pN um", "motor torque M"),
+    "ramp_time": ("s", "ramp time of the motor torque"),
+    "anchor": (None, "anchor of bead 0"),
+    "sphere_radius": ("um", "radius of the anchoring sphere"),
+    "hook": (None, "hook model"),
+    "hook_stiffness": ("pN um", "hook stiffness"),
+    "time": ("s", "simulated time of each run"),
+    "save_every": ("s", "interval between records"),
+    "average_from": ("s", "start of the averaging window"),
+    "thermal": ("1", "thermal noise on (1) or off (0)"),
+    "seed": ("1", "random seed"),
+    "method": (None, "integrator"),
+    "rtol": ("1", "relative tolerance of CVODE"),
+    "dt": ("s", "step of the fixed-step scheme"),
+}
+
+
+def _cf_attrs(table: Mapping, name: str) -> dict:
+    """``units`` (where the quantity has one) and ``long_name`` of a variable or coordinate."""
+    units, long_name = table.get(name, (None, name))
+    return {"long_name": long_name, **({"units": units} if units is not None else {})}
 
 
 # -- grid points ------------------------------------------------------------------------
@@ -238,8 +301,10 @@ class SweepData:
         """As an ``xarray.Dataset`` (needs the optional xarray package)."""
         import xarray as xr
 
-        return xr.Dataset({n: (self.dims, v) for n, v in self.data.items()},
-                          coords={d: list(self.coords[d]) for d in self.dims}, attrs=self.attrs)
+        return xr.Dataset({n: (self.dims, v, _cf_attrs(VARIABLE_ATTRS, n)) for n, v in self.data.items()},
+                          coords={d: (d, list(self.coords[d]), _cf_attrs(PARAMETER_ATTRS, d))
+                                  for d in self.dims},
+                          attrs=io.netcdf_attrs(self.attrs))
 
 
 def _read(ds) -> np.ndarray:
@@ -277,7 +342,7 @@ class _Store:
         self.keys = np.full(sweep.shape, "", dtype=object)
         self.retry: set[int] = set()  #: failed points of the file to compute again
         fixed = dict(sweep.fixed)
-        self.attrs = {**fixed, "format": FORMAT, "format_version": 1, "dims": json.dumps(sweep.dims),
+        self.attrs = {**io.CONVENTIONS, **fixed, "format": FORMAT, "format_version": 1, "dims": json.dumps(sweep.dims),
                       "fixed": json.dumps(fixed, sort_keys=True), "seeds": np.array(sweep.seeds),
                       **io.provenance()}
 
@@ -296,15 +361,17 @@ class _Store:
 
         with io.atomic_path(self.path) as tmp:
             with h5py.File(tmp, "w") as f:
-                f.attrs.update(self.attrs)
+                f.attrs.update(io.netcdf_attrs(self.attrs))
                 for name, values in self.sweep.ranges:
                     kind = "str" if PARAMETERS[name] is str else ("i1" if PARAMETERS[name] is bool else None)
                     f.create_dataset(name, data=np.array(values, dtype=object if kind == "str" else kind),
                                      dtype=h5py.string_dtype() if kind == "str" else None)
+                    f[name].attrs.update(_cf_attrs(PARAMETER_ATTRS, name))
                     f[name].make_scale(name)
                 for name, arr in {**self.data, "key": self.keys}.items():
                     ds = f.create_dataset(name, data=arr, dtype=h5py.string_dtype()
                                           if arr.dtype == object else None)
+                    ds.attrs.update(_cf_attrs(VARIABLE_ATTRS, name))
                     for axis, dim in enumerate(self.sweep.dims):
                         ds.dims[axis].attach_scale(f[dim])
 
@@ -465,5 +532,5 @@ def run_sweep(sweep: Sweep, out: str | Path, *, resume: bool = False, overwrite:
                        lost=lost, retried=retried, output=str(out), wall_seconds=time.perf_counter() - t0)
 
 
-__all__ = ["FALLBACK_PARAMETERS", "VARIABLES", "Sweep", "SweepData", "SweepReport", "PointRun",
+__all__ = ["FALLBACK_PARAMETERS", "PARAMETER_ATTRS", "VARIABLES", "VARIABLE_ATTRS", "Sweep", "SweepData", "SweepReport", "PointRun",
            "point_key", "read_sweep", "run_point", "run_sweep"]

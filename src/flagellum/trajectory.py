@@ -99,6 +99,24 @@ class Trajectory:
         segments = f", {self.positions.shape[1] - 1} segments" if self.positions.ndim == 3 else ""
         return f"Trajectory({len(self.t)} records{span}{segments})"
 
+    def to_xarray(self):
+        """The records as an ``xarray.Dataset`` laid out as the files are
+        (:data:`flagellum.io.RECORD_META`): dimensions ``time``, ``bead``, ``xyz``, their
+        coordinates, CF ``units`` and ``long_name`` on every variable, ``meta`` as attributes."""
+        import xarray as xr
+
+        n = self.positions.shape[1] - 1 if self.positions.ndim == 3 else int(self.meta.get("segments", 0))
+        data = {}
+        for name, (shape, _) in io.RECORD_FIELDS.items():
+            if name != "t":
+                dims, units, long_name = io.RECORD_META[name]
+                values = getattr(self, name).reshape((len(self.t), *shape(n)))
+                data[name] = ((io.TIME, *dims), values, {"units": units, "long_name": long_name})
+        _, units, long_name = io.RECORD_META["t"]
+        coords = {io.TIME: (io.TIME, self.t, {"units": units, "long_name": long_name, **io.TIME_ATTRS}),
+                  **{c: (c, values(n), attrs) for c, (values, attrs) in io.COORDINATES.items()}}
+        return xr.Dataset(data, coords=coords, attrs=io.netcdf_attrs({**io.CONVENTIONS, **self.meta}))
+
     def summary(self, t_from: float | None = None) -> RunSummary:
         """Time averages over t ≥ ``t_from`` [s] (default: the last half of the run) and the
         regime of that window (:func:`flagellum.analysis.regimes.summarize_run`).
@@ -111,6 +129,22 @@ class Trajectory:
         """
         return summarize_run(self.t, self.thrust, self.motor_angle, self.positions, self.energy,
                              self.meta.get("helix_radius", 0.2), t_from)
+
+
+def open_trajectory(path: str | Path):
+    """A trajectory file (``flagellum simulate -o``; also a running or killed run's, and one
+    of the earlier layout without dimensions) as an ``xarray.Dataset``, loaded into memory:
+    :meth:`Trajectory.to_xarray` of its records, its attributes, and ``final_state`` (along
+    ``state``) when the file has one."""
+    from .errors import ParameterError
+
+    data = io.read_trajectory(path)
+    if "t" not in data:
+        raise ParameterError("file", str(path), "a flagellum trajectory file with records")
+    ds = Trajectory.from_records(data, data["attrs"]).to_xarray()
+    if "final_state" in data:
+        ds["final_state"] = (("state",), data["final_state"], dict(io.STATE_ATTRS))
+    return ds
 
 
 # -- files ------------------------------------------------------------------------------
@@ -227,4 +261,5 @@ class RunFiles:
                 io.create_trajectory(self.path, n_segments, {**attrs, "status": io.RUNNING})
 
 
-__all__ = ["COMPLETE", "OutputError", "RunFiles", "Trajectory", "checkpoint_path", "record_bytes"]
+__all__ = ["COMPLETE", "OutputError", "RunFiles", "Trajectory", "checkpoint_path", "open_trajectory",
+           "record_bytes"]

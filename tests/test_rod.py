@@ -188,7 +188,7 @@ def test_jacobian_is_banded_and_colouring_is_exact(boundary):
     color, lo, hi = m.jacobian_colors(KL, KU)
     assert color.max() + 1 < KL + KU + 1
     ab1, ab2 = np.zeros((ny, 2 * KL + KU + 1)), np.zeros((ny, 2 * KL + KU + 1))
-    args = (m.prm, m.iprm, m.ref_u, m.ref_e, m.ref_m, m._zf, m._zm, m._zh, m._ws, KL, KU)
+    args = (*m.kernel_arrays, KL, KU)
     K.band_jacobian(y, f0, *args, ab1, 1.0, np.zeros(ny), np.zeros(ny))
     K.colored_jacobian(y, f0, *args, ab2, 1.0, np.zeros(ny), np.zeros(ny), color, lo, hi)
     assert np.array_equal(ab1, ab2)

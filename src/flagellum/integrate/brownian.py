@@ -403,7 +403,7 @@ class ImplicitStepper:
         torques = np.array([m.motor(s) for s in times])
         status, done, it, nj, self._jac_age = implicit_steps(
             self.y, t0, k, dt, self.theta, m.prm, m.iprm, m.ref_u, m.ref_e, m.ref_m, self.kT, torques,
-            np.ascontiguousarray(normals), m._ws, self._ab, self._ipiv, self._backup, self._jac_age,
+            np.ascontiguousarray(normals), m.kernel_arrays[-1], self._ab, self._ipiv, self._backup, self._jac_age,
             self.jac_every, self._work, self._xwork, self.tol, self.max_iter, self.slow, self._hist,
             m.jacobian_colors(self._kl, self._ku))
         self.n_steps += done

@@ -95,18 +95,16 @@ class CvodeStepper:
     def _jac(self, t, y, yp, jj):
         m = self.model
         m.prm[K.P_TORQUE] = m.motor(t)
-        K.colored_jacobian(y, yp, m.prm, m.iprm, m.ref_u, m.ref_e, m.ref_m, m._zf, m._zm, m._zh,
-                           m._ws, self._kl, self._ku, self._ab, 1.0, self._yw, self._fw,
-                           *m.jacobian_colors(self._kl, self._ku))
+        K.colored_jacobian(y, yp, *m.kernel_arrays, self._kl, self._ku, self._ab, 1.0, self._yw,
+                           self._fw, *m.jacobian_colors(self._kl, self._ku))
         _band_to_dense(self._ab, self._kl, self._ku, jj)
         self.n_jac += 1
 
     def _band_jacobian(self, t, y, yp):
         m = self.model
         m.prm[K.P_TORQUE] = m.motor(t)
-        K.colored_jacobian(y, yp, m.prm, m.iprm, m.ref_u, m.ref_e, m.ref_m, m._zf, m._zm, m._zh,
-                           m._ws, self._kl, self._ku, self._ab, 1.0, self._yw, self._fw,
-                           *m.jacobian_colors(self._kl, self._ku))
+        K.colored_jacobian(y, yp, *m.kernel_arrays, self._kl, self._ku, self._ab, 1.0, self._yw,
+                           self._fw, *m.jacobian_colors(self._kl, self._ku))
         self.n_jac += 1
 
     def _psetup(self, t, y, yp, jok, jnew, gamma):

@@ -262,6 +262,15 @@ class RodModel:
         return out
 
     # -- frames -----------------------------------------------------------------------
+    @property
+    def kernel_arrays(self) -> tuple:
+        """The arrays the kernels take after the state, in their order: (prm, iprm, ref_u,
+        ref_e, ref_m, ext_f, ext_m, ext_hook, workspace), for integrators that call
+        :func:`~flagellum.rod.kernels.rhs` or :func:`~flagellum.rod.kernels.colored_jacobian`
+        themselves (the extra forces are zero; the arrays are the model's, not copies)."""
+        return (self.prm, self.iprm, self.ref_u, self.ref_e, self.ref_m, self._zf, self._zm,
+                self._zh, self._ws)
+
     def frames(self, y: np.ndarray | None = None) -> "Frames":
         """The frames of state ``y`` in the current charts (copies); without ``y``, those of
         the last :meth:`rhs`, :meth:`energy` or :meth:`frames` call. Row 0 is the hook frame."""

@@ -96,7 +96,7 @@ def test_demo_json_prints_only_the_json_object(cli, monkeypatch, tmp_path):
 
     monkeypatch.setattr(viz, "movie", movie)
     monkeypatch.setattr(demo, "run_demo", functools.partial(
-        demo.run_demo, runs=(("aligned", 0.3, 0.01),), frames=2))
+        demo.run_demo, runs=(("aligned", 0.3, 0.01, 0.01 / 400),), frames=2))
     code, out, err = cli("demo", "--output", tmp_path / "d", "--json")
     assert code == 0, err
     res = json.loads(out)  # nothing but the object on stdout

@@ -110,7 +110,7 @@ def test_frame_spacing_states_frames_per_revolution():
 def test_demo_movies_and_posters(tmp_path):
     from flagellum.demo import run_demo
 
-    res = run_demo(tmp_path, progress=False, runs=(("short", 1.0, 0.01),), frames=6)
+    res = run_demo(tmp_path, progress=False, runs=(("short", 1.0, 0.01, 0.01 / 400),), frames=6)
     assert set(res) == {"short"}
     n, shape, first, last = _read_movie(tmp_path / "short.mp4")
     assert n == 6 and shape == (720, 1280)

@@ -136,6 +136,8 @@ class Simulator:
         default local RFT); a nonlocal one is frozen over the chunks between chart checks
         and rebuilt as it says.
 
+    Notes
+    -----
     The run starts at t = 0 from the stress-free helix turned onto its pinned rotation axis
     (:func:`flagellum.hydro.rft.pinned_helix`); :meth:`from_state` starts from a given state.
     ``t``, ``y`` (computational frame) and ``frame_angle`` are the current time, state and

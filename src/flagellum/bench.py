@@ -9,15 +9,25 @@
 * ``brownian``: thermal run at N = 50 with the drift-implicit scheme, M = 1, over 0.1
   simulated s after a 2-ms ramp (long enough that the fixed cost of starting a run,
   ≈ 15 ms, adds < 3 %).
+* ``regimes`` (:func:`regimes`): the same work a user runs, N = 50 from rest — M = 1, buckled
+  M = 1.6, M = 3, oscillating M = 5, a load sphere, a free swimmer, thermal M = 1 — each
+  with the wall seconds per simulated second, the solver's steps, steps per motor
+  revolution, and the error of the time-averaged thrust, ω and χ (last half of the window)
+  against a tight-tolerance run whose own convergence is shown by a second, looser one.
+* ``work_precision`` (:func:`work_precision`): error of those averages against wall time for
+  CVODE over rtol and the fixed-step BDF2 over Δt (buckled M = 1.6 and M = 1 from rest);
+  :func:`plot_work_precision` draws the diagram (``flagellum bench --plot``).
 """
 
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
 
-from .motor import Motor
+from .analysis.observables import summarize
+from .motor import Boundary, Motor
 from .params import Filament, Params
 from .simulator import Simulator, SolverOptions, State
 
@@ -39,9 +49,11 @@ def steady_state(torque: float = 1.0, params: Params | None = None, warmup: floa
     return sim
 
 
-def bench(window: float = 0.2, quick: bool = False) -> dict:
-    """Run all benchmarks; returns the JSON-ready dict."""
-    out: dict = {"segments": 50, "torque": 1.0, "window": window}
+def bench(window: float = 0.2, quick: bool = False, with_regimes: bool = True,
+          with_work_precision: bool = False) -> dict:
+    """Run all benchmarks; returns the JSON-ready dict (``regimes``: :func:`regimes`;
+    ``work_precision``: :func:`work_precision`, only when asked for)."""
+    out: dict = {"segments": 50, "torque": 1.0, "window": window, "load_average": load_average()}
     sim = steady_state(1.0)
     t0, start, frame0 = sim.t, sim.state(), sim.model.omega_frame
     tr, wall, steps = _timed(sim, t0 + window, window / 100)
@@ -78,7 +90,154 @@ def bench(window: float = 0.2, quick: bool = False) -> dict:
     _, wall, steps = _timed(b, 0.002 + w, w / 10)
     out["brownian"] = {"segments": 50, "dt": opts.dt, "wall_per_simulated_second": wall / w,
                        "steps": steps}
+    if with_regimes:
+        out["regimes"] = regimes(quick)
+    if with_work_precision:
+        out["work_precision"] = work_precision(quick)
+    out["load_average_end"] = load_average()
     return out
+
+
+# -- same-work regimes -------------------------------------------------------------------
+#: name → (torque [pN·µm], window [s], boundary, thermal); all from rest, N = 50
+REGIMES = {
+    "from_rest_M1": (1.0, 0.1, Boundary(), False),
+    "buckled_M1.6": (1.6, 0.3, Boundary(), False),
+    "M3": (3.0, 0.1, Boundary(), False),
+    "oscillating_M5": (5.0, 0.1, Boundary(), False),
+    "load_sphere_M2": (2.0, 0.1, Boundary(anchor="sphere", sphere_radius=1.0), False),
+    "free_swimmer_M2": (2.0, 0.1, Boundary(anchor="free", sphere_radius=0.5), False),
+    "thermal_M1": (1.0, 0.05, Boundary(), True),
+}
+REFERENCE_RTOL = 1e-10  #: the reference run of the error columns
+CHECK_RTOL = 1e-9  #: its convergence check: the reference's error is ≲ this run's difference
+RTOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)  #: work–precision: CVODE
+DTS = (1e-4, 5e-5, 2e-5)  #: work–precision: fixed-step BDF2 [s]
+RECORDS = 200  #: records per window (the default of ``Simulator.run``)
+SAVE_GRID = 1e-4  #: record interval: a multiple of every Δt of DTS (whole fixed steps) [s]
+
+
+def _solver(kind: str, value: float | None = None) -> SolverOptions:
+    if kind == "cvode":
+        return SolverOptions() if value is None else SolverOptions(rtol=value, atol=None)
+    return SolverOptions(method="implicit", dt=value or SolverOptions().dt)
+
+
+def run_regime(name: str, solver: SolverOptions | None = None, window: float | None = None) -> dict:
+    """One run of regime ``name`` of :data:`REGIMES` from rest: wall time of the run itself,
+    steps, steps per motor revolution and the time averages (thrust, ω, χ; last half)."""
+    torque, w, boundary, thermal = REGIMES[name]
+    w = w if window is None else window
+    if solver is None:
+        solver = _solver("implicit" if thermal else "cvode")
+    sim = Simulator(Params(), Motor(torque), boundary, thermal=thermal, seed=1 if thermal else None,
+                    solver=solver)
+    # the same records for every solver: the averages compared sample the same instants
+    save = SAVE_GRID * max(1, round(w / RECORDS / SAVE_GRID))
+    tr, wall, steps = _timed(sim, w, save)
+    s = summarize(tr.t, tr.thrust, tr.motor_angle, tr.positions, tr.energy,
+                  tr.meta.get("helix_radius", 0.2))
+    revolutions = abs(tr.motor_angle[-1] - tr.motor_angle[0]) / (2 * np.pi)
+    return {"window": w, "wall_seconds": wall, "wall_per_simulated_second": wall / w,
+            "steps": steps, "steps_per_revolution": steps / max(revolutions, 1e-12),
+            "thrust": s.thrust_mean, "omega": s.omega_mean, "chi": s.chi_mean}
+
+
+def average_errors(run: dict, ref: dict) -> dict:
+    """Errors of the time averages: thrust and ω relative, χ relative to the reference's ω
+    (χ ≈ 0 while the filament stays aligned); ``error`` is the largest."""
+    scale_w = max(abs(ref["omega"]), 1e-12)
+    e = {"thrust_error": abs(run["thrust"] - ref["thrust"]) / max(abs(ref["thrust"]), 1e-12),
+         "omega_error": abs(run["omega"] - ref["omega"]) / scale_w,
+         "chi_error": abs(run["chi"] - ref["chi"]) / scale_w}
+    return {**e, "error": max(e.values())}
+
+
+def warm_up() -> None:
+    """Compile the kernels of every solver and boundary (untimed), so that no timed run pays
+    Numba's compile pause."""
+    for name, (torque, _, boundary, thermal) in REGIMES.items():
+        for solver in ((_solver("implicit"),) if thermal else (_solver("cvode"), _solver("bdf2"))):
+            Simulator(Params(), Motor(torque), boundary, thermal=thermal, seed=1,
+                      solver=solver).run(2e-4, save_every=1e-4, progress=False)
+
+
+def regimes(quick: bool = False, names=None) -> dict:
+    """:data:`REGIMES` at the default solver, each against a CVODE rtol = 1e-10 reference over
+    the same window (thermal: no reference, the noise differs per step size). ``reference_check``
+    is the error of an rtol = 1e-9 run against the reference, an upper bound on the reference's
+    own error. ``quick``: windows a quarter as long, reference rtol 1e-8 checked by 1e-7."""
+    ref_rtol, check_rtol = (1e-8, 1e-7) if quick else (REFERENCE_RTOL, CHECK_RTOL)
+    warm_up()
+    out = {}
+    for name in names or REGIMES:
+        torque, w, _, thermal = REGIMES[name]
+        w = 0.25 * w if quick else w
+        row = {"torque": torque, **run_regime(name, window=w)}
+        if not thermal:
+            ref = run_regime(name, _solver("cvode", ref_rtol), w)
+            chk = run_regime(name, _solver("cvode", check_rtol), w)
+            row.update(average_errors(row, ref), reference_rtol=ref_rtol,
+                       reference_check=average_errors(chk, ref)["error"],
+                       reference_wall_per_simulated_second=ref["wall_per_simulated_second"])
+        else:
+            row.update(error=None, dt=SolverOptions().dt)
+        row["peer_ratio"] = None  # benchmarks/bench_pyelastica.py measures the peer
+        out[name] = row
+    return out
+
+
+def work_precision(quick: bool = False, names=("buckled_M1.6", "from_rest_M1")) -> dict:
+    """Error of the time averages against wall time: CVODE over :data:`RTOLS`, BDF2 over
+    :data:`DTS`, against a CVODE rtol = 1e-10 run (quick: half windows, fewer points, 1e-9)."""
+    warm_up()
+    out = {}
+    for name in names:
+        w = REGIMES[name][1] * (0.5 if quick else 1.0)
+        ref = run_regime(name, _solver("cvode", 1e-9 if quick else REFERENCE_RTOL), w)
+        rows = []
+        points = [("cvode", r) for r in (RTOLS[::2] if quick else RTOLS)]
+        points += [("bdf2", d) for d in (DTS[:2] if quick else DTS)]
+        for kind, value in points:
+            r = run_regime(name, _solver(kind, value), w)
+            rows.append({"method": kind, "rtol" if kind == "cvode" else "dt": value,
+                         **r, **average_errors(r, ref)})
+        out[name] = {"window": w, "reference": ref, "runs": rows}
+    return out
+
+
+def plot_work_precision(data: dict, path) -> None:
+    """The work–precision diagram of :func:`work_precision`: error of the time averages
+    against wall seconds per simulated second, one panel per run, CVODE and BDF2 lines."""
+    from ._plot import pyplot
+
+    plt = pyplot()
+    fig, axes = plt.subplots(1, len(data), figsize=(5.2 * len(data), 4.2), squeeze=False)
+    for ax, (name, d) in zip(axes[0], data.items()):
+        for kind, key, marker in (("cvode", "rtol", "o-"), ("bdf2", "dt", "s--")):
+            rows = [r for r in d["runs"] if r["method"] == kind]
+            x = [r["wall_per_simulated_second"] for r in rows]
+            y = [max(r["error"], 1e-14) for r in rows]
+            ax.loglog(x, y, marker, label="CVODE (rtol)" if kind == "cvode" else "BDF2 (Δt)")
+            for r, xi, yi in zip(rows, x, y):
+                ax.annotate(f"{r[key]:.0e}", (xi, yi), fontsize=7, xytext=(3, 3),
+                            textcoords="offset points")
+        ax.axhline(1e-3, color="0.6", lw=0.8, ls=":")
+        ax.set_title(f"{name}, {d['window']:g} s from rest, N = 50")
+        ax.set_xlabel("wall s per simulated s")
+        ax.set_ylabel("error of time-averaged F, ω, χ (max, relative)")
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def load_average() -> float | None:
+    """The 1-minute load average of the machine (the timings are only comparable at equal load)."""
+    try:
+        return os.getloadavg()[0]
+    except OSError:  # pragma: no cover - not on every platform
+        return None
 
 
 def main_timing() -> float:

@@ -11,16 +11,37 @@ from ._output import emit_json, emit_table, fmt
 @click.option("--quick", is_flag=True, help="shorter windows (a rough number in seconds)")
 @click.option("--window", type=float, default=0.2, show_default=True,
               help="simulated time of the steady-state window [s]")
+@click.option("--regimes/--no-regimes", "with_regimes", default=True, show_default=True,
+              help="the same-work runs from rest (M = 1, 1.6, 3, 5, load sphere, free swimmer, "
+                   "thermal) against a tight-tolerance reference")
+@click.option("--plot", "plot", type=click.Path(dir_okay=False), default=None,
+              help="also run the work–precision comparison (CVODE over rtol, BDF2 over Δt) "
+                   "and draw its diagram to this file (PNG)")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
-def bench(quick, window, as_json):
-    """Speed benchmarks: wall seconds per simulated second, scaling with N, Brownian."""
-    from ..bench import bench as run_bench
+def bench(quick, window, with_regimes, plot, as_json):
+    """Speed benchmarks: wall seconds per simulated second, scaling with N, Brownian, and the
+    same-work regimes (wall per simulated s, steps, steps per revolution, error of the
+    time averages)."""
+    from ..bench import bench as run_bench, plot_work_precision
     from ..params import positive
 
-    out = run_bench(positive("window", window, 10.0), quick=quick)
+    out = run_bench(positive("window", window, 10.0), quick=quick, with_regimes=with_regimes,
+                    with_work_precision=plot is not None)
+    if plot is not None:
+        plot_work_precision(out["work_precision"], plot)
     if as_json:
         emit_json(out)
-    else:
-        emit_table({k: v for k, v in out.items() if k != "scaling"}, "flagellum bench")
-        for row in out["scaling"]:
-            click.echo("  " + ", ".join(f"{k} {fmt(v)}" for k, v in row.items()))
+        return
+    skip = ("scaling", "regimes", "work_precision")
+    emit_table({k: v for k, v in out.items() if k not in skip}, "flagellum bench")
+    for row in out["scaling"]:
+        click.echo("  " + ", ".join(f"{k} {fmt(v)}" for k, v in row.items()))
+    for name, row in out.get("regimes", {}).items():
+        click.echo(f"  {name}: " + ", ".join(
+            f"{k} {fmt(row[k])}" for k in ("wall_per_simulated_second", "steps",
+                                           "steps_per_revolution", "error") if k in row))
+    for name, d in out.get("work_precision", {}).items():
+        for r in d["runs"]:
+            setting = f"rtol {fmt(r['rtol'])}" if r["method"] == "cvode" else f"dt {fmt(r['dt'])}"
+            click.echo(f"  {name} {r['method']} {setting}: wall/sim-s "
+                       f"{fmt(r['wall_per_simulated_second'])}, error {fmt(r['error'])}")

@@ -119,3 +119,21 @@ def test_frozen_splitting_matches_the_unfrozen_reference_when_buckled():
     dx = np.abs(out["frozen"][0] - out["exact"][0]).max()
     df = np.abs(out["frozen"][1] - out["exact"][1]).max() / np.abs(out["exact"][1]).max()
     assert dx < 0.01 and df < 0.02
+
+
+def test_sweep_records_the_mobility(tmp_path):
+    """``hydrodynamics`` and ``hydro_refresh`` are sweep parameters; the file records the
+    model also at its default."""
+    from flagellum.sweep import PointRun, Sweep, _Store
+
+    fixed = _Store(Sweep.create({"torque": [1.0, 2.0]}, {"hydrodynamics": "sbt"}), tmp_path / "a.nc")
+    assert fixed.attrs["hydrodynamics"] == "sbt"
+    assert _Store(Sweep.create({"torque": [1.0, 2.0]}), tmp_path / "b.nc").attrs["hydrodynamics"] == "rft"
+    swept = Sweep.create({"hydrodynamics": "rft,sbt"})
+    assert "hydrodynamics" not in _Store(swept, tmp_path / "c.nc").attrs
+    assert [p["hydrodynamics"] for p in swept.points()] == ["rft", "sbt"]
+    run = PointRun.from_values({"hydrodynamics": "sbt", "hydro_refresh": 0.01})
+    assert run.hydrodynamics == Hydrodynamics("sbt", 0.01)
+    assert PointRun.from_values({}).hydrodynamics == Hydrodynamics()
+    with pytest.raises(ParameterError):
+        PointRun.from_values({"hydrodynamics": "bem"})

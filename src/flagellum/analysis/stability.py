@@ -63,8 +63,9 @@ FD_STEP = 1e-7  #: central-difference step [µm or rad]; λ is converged to ~1e-
 MAX_TORQUE_STEP = 0.25  #: continuation step in M [pN·µm]
 K_START, CLAMP_STIFFNESS = 1e-2, 1e4  #: hook stiffnesses [pN·µm] of the continuation in k
 #: default bracket of :func:`critical_torque` [pN·µm] by mobility model. With the nonlocal
-#: mobility the slow tilt mode of the anchored filament grows weakly below M ≈ 0.9
-#: (λ ≤ 0.01 /s, docs/hydrodynamics.md), so its bracket starts above that
+#: mobility the slow tilt mode of the anchored filament grows weakly at small torques
+#: (λ = +0.009 /s at M = 0.5, −1.19 /s at M = 1; docs/hydrodynamics.md), so its bracket
+#: starts at 1
 BRACKETS = {"rft": (0.5, 2.0), "sbt": (1.0, 2.5)}
 
 

@@ -129,17 +129,22 @@ def first_boundary(monkeypatch):
     monkeypatch.setattr(Boundary, "__post_init__", spy)
 
 
-def test_boundary_commands_are_all_tested():
+def _commands_with(param: str) -> set:
+    """Names of the commands (in every group) that take the parameter ``param``."""
     from flagellum.cli import main
 
     def walk(group):
         for name, cmd in group.commands.items():
             if isinstance(cmd, type(main)):
                 yield from walk(cmd)
-            elif any(p.name == "hook_stiffness" for p in cmd.params):
+            elif any(p.name == param for p in cmd.params):
                 yield name
 
-    assert set(walk(main)) == set(BOUNDARY_COMMANDS)
+    return set(walk(main))
+
+
+def test_boundary_commands_are_all_tested():
+    assert _commands_with("hook_stiffness") == set(BOUNDARY_COMMANDS)
 
 
 @pytest.mark.parametrize("command", sorted(BOUNDARY_COMMANDS))
@@ -189,16 +194,7 @@ def first_hydrodynamics(monkeypatch):
 
 
 def test_hydro_commands_are_all_tested():
-    from flagellum.cli import main
-
-    def walk(group):
-        for name, cmd in group.commands.items():
-            if isinstance(cmd, type(main)):
-                yield from walk(cmd)
-            elif any(p.name == "hydrodynamics" for p in cmd.params):
-                yield name
-
-    assert set(walk(main)) == set(HYDRO_COMMANDS)
+    assert _commands_with("hydrodynamics") == set(HYDRO_COMMANDS)
 
 
 @pytest.mark.parametrize("command", sorted(HYDRO_COMMANDS))

@@ -249,3 +249,33 @@ def test_sbt_critical_torque_confirmed_by_simulation(factor, regime):
 
     run = PointRun.from_values({"torque": factor * SBT_MC1, "time": 0.8, "hydrodynamics": "sbt"})
     assert run.simulate()["regime"] == regime
+
+
+def test_free_swimmer_speed_matches_the_sbt_rigid_body():
+    """Swimming speed and rotation rate of the free swimmer (body a = 0.5 µm) with SBT against
+    the force- and torque-free rigid body of hydro.sbt for its instantaneous shape: the
+    resistance of filament + body from the nonlocal mobility with the body attached to bead 0,
+    motor torque M e_z on the filament (the SBT twin of the RFT check in test_simulator.py)."""
+    from flagellum.rod.model import positions
+
+    p, a = Params(), 0.5
+    sim = Simulator(p, Motor(1.0), Boundary(anchor="free", sphere_radius=a),
+                    solver=SolverOptions(rtol=1e-8), hydrodynamics=SBT)
+    tr = sim.run(0.1, save_every=0.1 / 50)
+    pos = positions(sim.y)
+    sim.model.refresh_mobility(sim.y, force=True)  # ΔM at this very shape
+    vel = positions(sim.model.rhs(sim.t, sim.y))  # co-rotating frame: v_z as in the lab
+    w = np.full(len(pos), p.filament.segment_length)
+    w[0] = w[-1] = p.filament.segment_length / 2
+    e3 = np.diff(pos, axis=0)
+    e3 /= np.linalg.norm(e3, axis=1)[:, None]
+    tan = np.vstack([e3[:1], e3[:-1] + e3[1:], e3[-1:]])
+    tan /= np.linalg.norm(tan, axis=1)[:, None]
+    M_att = effective_mobility(pos, p.fluid.filament_radius, p.fluid.viscosity, L.FREE, a)
+    R = sbt.rigid_resistance(M_att, pos, pos[0], tan, w, p.gammas[2])
+    U = np.linalg.solve(R, [0, 0, 0, 0, 0, 1.0])
+    s = tr.summary()
+    assert 0.7 < s.swimming_speed / 35.06 < 0.8  # RFT: 35.06 µm/s
+    assert vel[0, 2] == pytest.approx(U[2], rel=0.02)
+    assert s.swimming_speed == pytest.approx(U[2], rel=0.005)  # measured: 26.515 against 26.518
+    assert s.omega_mean == pytest.approx(U[5], rel=0.01)  # measured: 837.6 against 840.2

@@ -53,12 +53,28 @@ def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality:
         mod = importlib.import_module(f".{fig}", __name__)
         t = Timer()
         result[fig] = mod.run(out / fig, quality, cache)
+        if cache.hydrodynamics is not None and not cache.hydrodynamics.is_local:
+            _mark_hydrodynamics(out / fig, result[fig], cache.hydrodynamics)
         if echo:
             echo(f"  {fig} done in {t.seconds:.1f} s → {out / fig}")
     if target != "all":
         return result[target]
     _write_index(out, result, quality, timer.seconds)
     return {**result, "wall_seconds": timer.seconds, "quality": quality}
+
+
+def _mark_hydrodynamics(fig_dir: Path, result: dict, hydrodynamics) -> None:
+    """State a nonlocal mobility in the figure's headline numbers and ``comparison.md``."""
+    from ..io import atomic_write_text
+
+    result["hydrodynamics"] = hydrodynamics.model
+    p = fig_dir / "comparison.md"
+    if p.exists():
+        text = p.read_text()
+        text = text.rstrip("\n") + ("\n" if "\nNotes:\n" in text else "\n\nNotes:\n\n")
+        atomic_write_text(p, text + f"- Hydrodynamics: `{hydrodynamics.model}` (refresh "
+                             f"{hydrodynamics.refresh:g} µm) in the runs and stability analyses of "
+                             "this figure, not the paper's local RFT (docs/hydrodynamics.md).\n")
 
 
 def _write_index(out: Path, result: dict, quality: str, seconds: float) -> None:

@@ -21,7 +21,9 @@ def stability(torque, n_eigs, as_json, **kwargs):
     """Linear stability of the aligned rotating filament at torque M (paper Fig. 4(a)).
 
     Prints Ω, the thrust, λ (largest real part of the spectrum in the co-rotating frame,
-    rotational zero mode removed) and the leading eigenvalues as [re, im] pairs.
+    rotational zero mode removed) and the leading eigenvalues as [re, im] pairs. With
+    ``--hydrodynamics sbt`` the mobility is rebuilt at every evaluation (``--hydro-refresh``
+    has no effect).
     """
     from ..analysis.stability import linear_stability
 
@@ -47,7 +49,10 @@ def stability(torque, n_eigs, as_json, **kwargs):
 @click.option("--xtol", type=float, default=1e-4, show_default=True, help="tolerance on M_c1 [pN·µm]")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
 def critical_torque(bracket, xtol, as_json, **kwargs):
-    """Buckling threshold M_c1 where λ(M) changes sign, with F_c1 and Ω there (paper Sec. 3.1–3.2)."""
+    """Buckling threshold M_c1 where λ(M) changes sign, with F_c1 and Ω there (paper Sec. 3.1–3.2).
+
+    With ``--hydrodynamics sbt`` the mobility is rebuilt at every evaluation, as in ``stability``.
+    """
     from ..analysis.stability import critical_torque as find
 
     boundary = boundary_from_cli(kwargs)

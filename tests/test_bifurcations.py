@@ -41,7 +41,7 @@ class Threshold:
 @pytest.fixture(autouse=True)
 def fast_mc1(monkeypatch):
     """M_c1 from linear stability takes seconds: replaced here (tested in test_stability.py)."""
-    monkeypatch.setattr(bif, "critical", lambda params, boundary, xtol=1e-3:
+    monkeypatch.setattr(bif, "critical", lambda params, boundary, xtol=1e-3, hydrodynamics=None:
                         {"M_c1": 1.1, "M_c1_uncertainty": xtol, "F_c1": 1.0})
 
 

@@ -129,17 +129,22 @@ def first_boundary(monkeypatch):
     monkeypatch.setattr(Boundary, "__post_init__", spy)
 
 
-def test_boundary_commands_are_all_tested():
+def _commands_with(param: str) -> set:
+    """Names of the commands (in every group) that take the parameter ``param``."""
     from flagellum.cli import main
 
     def walk(group):
         for name, cmd in group.commands.items():
             if isinstance(cmd, type(main)):
                 yield from walk(cmd)
-            elif any(p.name == "hook_stiffness" for p in cmd.params):
+            elif any(p.name == param for p in cmd.params):
                 yield name
 
-    assert set(walk(main)) == set(BOUNDARY_COMMANDS)
+    return set(walk(main))
+
+
+def test_boundary_commands_are_all_tested():
+    assert _commands_with("hook_stiffness") == set(BOUNDARY_COMMANDS)
 
 
 @pytest.mark.parametrize("command", sorted(BOUNDARY_COMMANDS))
@@ -155,6 +160,57 @@ def test_boundary_flag_implies_its_kind(command, flag, value, expect, first_boun
         run([command, flag, value, *extra])
     b = built.value.args[0]
     assert {k: getattr(b, k) for k in expect} == expect
+
+
+# -- hydrodynamics flags: every command that builds a model -------------------------------
+
+#: the further arguments with which each command that takes ``--hydrodynamics`` gets as far
+#: as building its first model (sweep: its first point, in the parent process)
+HYDRO_COMMANDS = {
+    "simulate": [], "stability": ["--torque", "1"], "critical-torque": [],
+    "bifurcations": ["--mc1-only"], "reproduce": ["fig3", "--output", "{tmp}/r"],
+    "sweep": ["--torque", "1", "--out", "{tmp}/s.nc"],
+}
+
+
+@pytest.fixture
+def first_hydrodynamics(monkeypatch):
+    """Raise _Built with the mobility option of the first RodModel (or sweep point) built."""
+    from flagellum import sweep
+    from flagellum.rod.model import RodModel
+
+    monkeypatch.setenv("FLAGELLUM_WORKERS", "1")  # reproduce: its runs in this process
+    init, point = RodModel.__init__, sweep.PointRun.from_values.__func__
+
+    def spy(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        raise _Built(self.hydrodynamics)
+
+    def spy_point(cls, values):
+        raise _Built(point(cls, values).hydrodynamics)
+
+    monkeypatch.setattr(RodModel, "__init__", spy)
+    monkeypatch.setattr(sweep.PointRun, "from_values", classmethod(spy_point))
+
+
+def test_hydro_commands_are_all_tested():
+    assert _commands_with("hydrodynamics") == set(HYDRO_COMMANDS)
+
+
+@pytest.mark.parametrize("command", sorted(HYDRO_COMMANDS))
+def test_hydrodynamics_flag_reaches_the_model(command, first_hydrodynamics, tmp_path):
+    """``--hydrodynamics sbt --hydro-refresh r`` is the mobility of the model each command
+    builds (the linear stability evaluates it unfrozen: refresh 0)."""
+    from flagellum.hydro.options import Hydrodynamics
+
+    extra = [a.format(tmp=tmp_path) for a in HYDRO_COMMANDS[command]]
+    with pytest.raises(_Built) as built:
+        run([command, "--hydrodynamics", "sbt", "--hydro-refresh", "0.01", *extra])
+    unfrozen = command in ("stability", "critical-torque", "bifurcations")
+    assert built.value.args[0] == Hydrodynamics("sbt", 0.0 if unfrozen else 0.01)
+    with pytest.raises(_Built) as built:  # the default: the paper's local drag
+        run([command, *extra])
+    assert built.value.args[0] == Hydrodynamics()
 
 
 def test_boundary_from_flags_keeps_given_kinds():

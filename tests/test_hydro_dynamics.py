@@ -119,3 +119,163 @@ def test_frozen_splitting_matches_the_unfrozen_reference_when_buckled():
     dx = np.abs(out["frozen"][0] - out["exact"][0]).max()
     df = np.abs(out["frozen"][1] - out["exact"][1]).max() / np.abs(out["exact"][1]).max()
     assert dx < 0.01 and df < 0.02
+
+
+def test_sweep_records_the_mobility(tmp_path):
+    """``hydrodynamics`` and ``hydro_refresh`` are sweep parameters; the file records the
+    model also at its default."""
+    from flagellum.sweep import PointRun, Sweep, _Store
+
+    fixed = _Store(Sweep.create({"torque": [1.0, 2.0]}, {"hydrodynamics": "sbt"}), tmp_path / "a.nc")
+    assert fixed.attrs["hydrodynamics"] == "sbt"
+    assert _Store(Sweep.create({"torque": [1.0, 2.0]}), tmp_path / "b.nc").attrs["hydrodynamics"] == "rft"
+    swept = Sweep.create({"hydrodynamics": "rft,sbt"})
+    assert "hydrodynamics" not in _Store(swept, tmp_path / "c.nc").attrs
+    assert [p["hydrodynamics"] for p in swept.points()] == ["rft", "sbt"]
+    run = PointRun.from_values({"hydrodynamics": "sbt", "hydro_refresh": 0.01})
+    assert run.hydrodynamics == Hydrodynamics("sbt", 0.01)
+    assert PointRun.from_values({}).hydrodynamics == Hydrodynamics()
+    with pytest.raises(ParameterError):
+        PointRun.from_values({"hydrodynamics": "bem"})
+
+
+@pytest.mark.parametrize("boundary", [Boundary("sphere", 1.0), Boundary("free", sphere_radius=0.5),
+                                      Boundary("free")], ids=["load sphere", "swimmer", "filament alone"])
+def test_fluid_force_on_filament_and_body_balances(boundary):
+    """At a deformed, twisted state the bead velocities of the kernel (ΔM built at that state)
+    are those of the nonlocal mobility with the sphere attached, and the fluid force on
+    filament + sphere that they imply, R U, vanishes: along z on the load sphere (free to
+    slide), in every direction for the free swimmer (force-free to round-off)."""
+    from flagellum.rod.model import RodModel, positions
+
+    p = SHORT
+    m = RodModel(p, Motor(1.0), boundary, hydrodynamics=Hydrodynamics("sbt", refresh=0.0))
+    y = m.initial_state()
+    rng = np.random.default_rng(3)
+    y[3:] += rng.normal(0.0, 0.03, y.size - 3)
+    U = positions(m.rhs(0.0, y)).ravel()
+    x = positions(y)
+    a = boundary.sphere_radius or 0.0
+    free = L.FREE if boundary.anchor == "free" else L.AXIAL
+    M_att = effective_mobility(x, p.fluid.filament_radius, p.fluid.viscosity, L.FREE, a)
+    f = np.linalg.solve(M_att, U).reshape(-1, 3)  # force on the fluid per bead (bead 0: + sphere)
+    total = f.sum(0)
+    scale = np.abs(f).max()
+    assert scale > 1e-3
+    if free == L.FREE:
+        assert np.abs(total).max() < 1e-9 * scale
+    else:
+        # bead 0 slides along z only: the pin's reaction (x, y) reaches the fluid, z does not
+        assert abs(total[2]) < 1e-9 * scale and np.abs(total[:2]).max() > 1e-6 * scale
+
+
+def test_sbt_run_killed_after_a_checkpoint_resumes_bit_identical(tmp_path):
+    """A nonlocal run SIGKILLed after its first checkpoint resumes (ΔM rebuilt where the
+    integrator restarts) to the records of the run that never stopped."""
+    import os
+    import signal
+
+    from flagellum.io import RECORD_FIELDS, read_trajectory
+
+    def new():
+        return Simulator(Params.from_flat({"length": 2.0}), Motor(0.5), hydrodynamics=SBT)
+
+    run = dict(t_end=0.06, save_every=1e-3, checkpoint_every=0.02, progress=False)
+    (tmp_path / "ref").mkdir()
+    (tmp_path / "run").mkdir()
+    ref, out = tmp_path / "ref" / "ref.h5", tmp_path / "run" / "run.h5"
+    new().run(output=ref, **run)
+    pid = os.fork()
+    if pid == 0:  # child: killed right after checkpoint 0 is in place (main, part 0, checkpoint 0)
+        try:
+            replace, calls = os.replace, [0]
+
+            def replace_then_die(*args, **kwargs):
+                replace(*args, **kwargs)
+                calls[0] += 1
+                if calls[0] == 3:
+                    os.kill(os.getpid(), signal.SIGKILL)
+
+            os.replace = replace_then_die
+            new().run(output=out, **run)
+        finally:
+            os._exit(0)
+    status = os.waitpid(pid, 0)[1]
+    assert os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGKILL
+    assert len(read_trajectory(out)["t"]) < 61
+    sim, _ = Simulator.resume(out, progress=False)
+    assert sim.hydrodynamics == SBT
+    a, b = read_trajectory(ref), read_trajectory(out)
+    assert b["attrs"]["status"] == "complete"
+    for name in [*RECORD_FIELDS, "final_state"]:
+        assert np.array_equal(a[name], b[name]), name
+
+
+# -- linear stability with the nonlocal mobility ---------------------------------------------
+#: the anchored paper filament with SBT (critical_torque, xtol 1e-3; docs/hydrodynamics.md)
+SBT_MC1, SBT_FC1 = 1.5845, 0.9031
+
+
+def test_stability_sees_the_unfrozen_mobility():
+    """The aligned state and its spectrum use the nonlocal mobility rebuilt at every
+    evaluation; its thrust per torque is SBT's (≈ 40 % below RFT's)."""
+    from flagellum.analysis.stability import linear_stability, relative_equilibrium
+
+    eq = relative_equilibrium(SHORT, 1.0, hydrodynamics=SBT)
+    assert eq.hydrodynamics == Hydrodynamics("sbt", refresh=0.0)
+    assert eq.model().hydrodynamics.refresh == 0.0 and eq.residual < 1e-6
+    local = relative_equilibrium(SHORT, 1.0)
+    assert 0.45 < eq.thrust / local.thrust < 0.75
+    r = linear_stability(equilibrium=eq, n_eigs=2)
+    # the leading mode of this short filament is its slow tilt (Im λ ≈ Ω, growing slowly
+    # with RFT too: 0.54 /s); with SBT 1.31 /s
+    assert r.lambda_ == pytest.approx(1.309, abs=0.01) and abs(r.frequency / r.omega - 1) < 0.05
+
+
+@pytest.mark.slow
+def test_sbt_critical_torque_of_the_anchored_filament():
+    from flagellum.analysis.stability import critical_torque
+
+    ct = critical_torque(Params(), hydrodynamics=SBT, xtol=1e-3)
+    assert ct.critical_torque == pytest.approx(SBT_MC1, abs=2e-3)
+    assert ct.critical_force == pytest.approx(SBT_FC1, abs=3e-3)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("factor,regime", [(0.9, "aligned"), (1.1, "buckled")])
+def test_sbt_critical_torque_confirmed_by_simulation(factor, regime):
+    """0.8 s from the stress-free helix (≈ 30 and 50 s): aligned at 0.9 M_c1, buckled at 1.1 M_c1."""
+    from flagellum.sweep import PointRun
+
+    run = PointRun.from_values({"torque": factor * SBT_MC1, "time": 0.8, "hydrodynamics": "sbt"})
+    assert run.simulate()["regime"] == regime
+
+
+def test_free_swimmer_speed_matches_the_sbt_rigid_body():
+    """Swimming speed and rotation rate of the free swimmer (body a = 0.5 µm) with SBT against
+    the force- and torque-free rigid body of hydro.sbt for its instantaneous shape: the
+    resistance of filament + body from the nonlocal mobility with the body attached to bead 0,
+    motor torque M e_z on the filament (the SBT twin of the RFT check in test_simulator.py)."""
+    from flagellum.rod.model import positions
+
+    p, a = Params(), 0.5
+    sim = Simulator(p, Motor(1.0), Boundary(anchor="free", sphere_radius=a),
+                    solver=SolverOptions(rtol=1e-8), hydrodynamics=SBT)
+    tr = sim.run(0.1, save_every=0.1 / 50)
+    pos = positions(sim.y)
+    sim.model.refresh_mobility(sim.y, force=True)  # ΔM at this very shape
+    vel = positions(sim.model.rhs(sim.t, sim.y))  # co-rotating frame: v_z as in the lab
+    w = np.full(len(pos), p.filament.segment_length)
+    w[0] = w[-1] = p.filament.segment_length / 2
+    e3 = np.diff(pos, axis=0)
+    e3 /= np.linalg.norm(e3, axis=1)[:, None]
+    tan = np.vstack([e3[:1], e3[:-1] + e3[1:], e3[-1:]])
+    tan /= np.linalg.norm(tan, axis=1)[:, None]
+    M_att = effective_mobility(pos, p.fluid.filament_radius, p.fluid.viscosity, L.FREE, a)
+    R = sbt.rigid_resistance(M_att, pos, pos[0], tan, w, p.gammas[2])
+    U = np.linalg.solve(R, [0, 0, 0, 0, 0, 1.0])
+    s = tr.summary()
+    assert 0.7 < s.swimming_speed / 35.06 < 0.8  # RFT: 35.06 µm/s
+    assert vel[0, 2] == pytest.approx(U[2], rel=0.02)
+    assert s.swimming_speed == pytest.approx(U[2], rel=0.005)  # measured: 26.515 against 26.518
+    assert s.omega_mean == pytest.approx(U[5], rel=0.01)  # measured: 837.6 against 840.2

@@ -19,7 +19,7 @@ from .errors import ParameterError
 from .params import Filament, Fluid
 
 #: Sweepable parameters and their types: the model parameters (as in ``Params.from_flat``),
-#: motor, boundary, run length and solver settings.
+#: motor, boundary, hydrodynamics, run length and solver settings.
 MODEL_PARAMETERS: dict[str, type] = {
     **{f.name: (str if f.name == "handedness" else float) for k in (Filament, Fluid) for f in fields(k)},
     "friction": str, "gamma_par": float, "gamma_perp": float, "gamma_rot": float,
@@ -27,6 +27,7 @@ MODEL_PARAMETERS: dict[str, type] = {
 PARAMETERS: dict[str, type] = {
     **MODEL_PARAMETERS, "torque": float, "ramp_time": float,
     "anchor": str, "sphere_radius": float, "hook": str, "hook_stiffness": float,
+    "hydrodynamics": str, "hydro_refresh": float,
     "time": float, "save_every": float, "average_from": float,
     "thermal": bool, "seed": int, "method": str, "rtol": float, "dt": float,
 }

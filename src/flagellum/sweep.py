@@ -50,6 +50,7 @@ from .parallel import dask_pool, default_workers, process_pool
 from .params import Params, positive, read_toml
 
 if TYPE_CHECKING:
+    from .hydro.options import Hydrodynamics
     from .motor import Boundary, Motor
     from .simulator import SolverOptions
 
@@ -111,6 +112,8 @@ PARAMETER_ATTRS: dict[str, tuple[str | None, str]] = {
     "sphere_radius": ("um", "radius of the anchoring sphere"),
     "hook": (None, "hook model"),
     "hook_stiffness": ("pN um", "hook stiffness"),
+    "hydrodynamics": (None, "filament mobility: rft (local) or sbt (nonlocal slender-body theory)"),
+    "hydro_refresh": ("um", "bead displacement that rebuilds the frozen nonlocal mobility"),
     "time": ("s", "simulated time of each run"),
     "save_every": ("s", "interval between records"),
     "average_from": ("s", "start of the averaging window"),
@@ -230,10 +233,13 @@ class PointRun:
     time: float
     save_every: float
     average_from: float | None
+    hydrodynamics: Hydrodynamics | None = None  #: default local RFT
 
     @classmethod
     def from_values(cls, v: Mapping) -> "PointRun":
-        """Defaults as ``flagellum simulate``: time 0.3 s, save_every time/300, thermal with kT."""
+        """Defaults as ``flagellum simulate``: time 0.3 s, save_every time/300, thermal with
+        kT, hydrodynamics rft."""
+        from .hydro.options import Hydrodynamics
         from .motor import Boundary, Motor
         from .simulator import SolverOptions
 
@@ -248,8 +254,11 @@ class PointRun:
                   **({"dt": v["dt"]} if "dt" in v else {})}
         t_end = positive("time", v.get("time", 0.3), 1e6)
         save_every = positive("save_every", v.get("save_every", t_end / 300), t_end)
+        hydro = Hydrodynamics(**{key: v[name] for key, name in (("model", "hydrodynamics"),
+                                                                ("refresh", "hydro_refresh"))
+                                 if name in v})
         return cls(params, motor, boundary, SolverOptions(**solver), thermal, v.get("seed", 0),
-                   t_end, save_every, v.get("average_from"))
+                   t_end, save_every, v.get("average_from"), hydro)
 
     def simulate(self) -> dict:
         """Run to ``time``; the summary fields, the regime and the integrator steps."""
@@ -258,7 +267,7 @@ class PointRun:
         from .simulator import Simulator
 
         sim = Simulator(self.params, self.motor, self.boundary, thermal=self.thermal,
-                        seed=self.seed, solver=self.solver)
+                        seed=self.seed, solver=self.solver, hydrodynamics=self.hydrodynamics)
         traj = sim.run(self.time, save_every=self.save_every, progress=False)
         helix = Helix.from_filament(self.params.filament)
         regime = classify(traj.t, traj.thrust, traj.positions, helix.radius, helix.axial_length,
@@ -342,7 +351,9 @@ class _Store:
         self.keys = np.full(sweep.shape, "", dtype=object)
         self.retry: set[int] = set()  #: failed points of the file to compute again
         fixed = dict(sweep.fixed)
-        self.attrs = {**io.CONVENTIONS, **fixed, "format": FORMAT, "format_version": 1, "dims": json.dumps(sweep.dims),
+        # the mobility is recorded also at its default (not swept, not given: rft)
+        model = {} if "hydrodynamics" in sweep.dims else {"hydrodynamics": "rft"}
+        self.attrs = {**io.CONVENTIONS, **model, **fixed, "format": FORMAT, "format_version": 1, "dims": json.dumps(sweep.dims),
                       "fixed": json.dumps(fixed, sort_keys=True), "seeds": np.array(sweep.seeds),
                       **io.provenance()}
 

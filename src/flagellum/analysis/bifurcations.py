@@ -30,6 +30,7 @@ from typing import Any, Callable
 
 from ..errors import ParameterError
 from ..grid import parse_values
+from ..hydro.options import Hydrodynamics
 from ..motor import Boundary
 from ..paper import PAPER
 from ..parallel import process_pool, serial_pool
@@ -63,6 +64,7 @@ class RunConfig:
     window: float = 0.5  #: averaging window: this fraction of the run at the final torque
     samples: int = 600
     rtol: float = 1e-6
+    hydrodynamics: Hydrodynamics = field(default_factory=Hydrodynamics)
 
     def __call__(self, torque: float, state: Any = None) -> tuple[dict, Any]:
         from ..helix import Helix
@@ -84,8 +86,10 @@ class RunConfig:
         def make(method, frame):  # a continuation starts from the last run's lab-frame state
             opts = SolverOptions(method=method, rtol=self.rtol, frame=frame)
             if state is None:
-                return Simulator(self.params, motor, self.boundary, solver=opts)
-            return Simulator.from_state(state, self.params, motor, self.boundary, solver=opts)
+                return Simulator(self.params, motor, self.boundary, solver=opts,
+                                 hydrodynamics=self.hydrodynamics)
+            return Simulator.from_state(state, self.params, motor, self.boundary, solver=opts,
+                                        hydrodynamics=self.hydrodynamics)
 
         tr, sim, method, frame, errors = run_first_success(make, attempts, t_total,
                                                            t_total / self.samples)
@@ -235,14 +239,15 @@ def _chain_task(arg) -> dict:
     return continuation(simulate, torques, direction, tol)
 
 
-def critical(params: Params, boundary: Boundary, xtol: float = 1e-3) -> dict:
+def critical(params: Params, boundary: Boundary, xtol: float = 1e-3,
+             hydrodynamics: Hydrodynamics | None = None) -> dict:
     """M_c1 from linear stability, the bracket widened upwards (a load sphere raises M_c1)."""
-    from .stability import critical_torque
+    from .stability import BRACKETS, critical_torque
 
-    lo, hi, last = 0.5, 2.0, None
+    (lo, hi), last = BRACKETS[(hydrodynamics or Hydrodynamics()).model], None
     for _ in range(5):
         try:
-            ct = critical_torque(params, boundary, (lo, hi), xtol)
+            ct = critical_torque(params, boundary, (lo, hi), xtol, hydrodynamics=hydrodynamics)
             return {"M_c1": ct.critical_torque, "M_c1_uncertainty": xtol, "F_c1": ct.critical_force}
         except ParameterError as exc:
             if exc.name != "bracket":
@@ -275,14 +280,17 @@ def bifurcations(params: Params | None = None, boundary: Boundary | None = None,
                  tol: float | None = None, hysteresis: bool = False, mc2: bool = True,
                  confirm_mc1: float | None = None, workers: int = 1, progress: bool = False,
                  on_probe: Callable[[list], None] | None = None,
-                 simulate: Simulate | None = None) -> dict:
+                 simulate: Simulate | None = None,
+                 hydrodynamics: Hydrodynamics | None = None) -> dict:
     """M_c1, M_c2 with uncertainties, optional hysteresis, and the regime of every probe.
 
     ``simulate`` replaces the simulation (tests); ``on_probe(probes)`` is called after
-    every finished probe (used to write partial results).
+    every finished probe (used to write partial results); ``hydrodynamics`` the filament's
+    mobility in the runs and in the linear stability (default local RFT).
     """
     wall0 = time.perf_counter()
     params, boundary = params or Params(), boundary or Boundary()
+    hydrodynamics = hydrodynamics or Hydrodynamics()
     q = SCAN_SETTINGS[check_choice("quality", quality, tuple(SCAN_SETTINGS))]
     torques = scan_torques(quality, torque_range)
     t_end = positive("t_end", q["t_end"] if t_end is None else t_end, 100.0)
@@ -291,10 +299,11 @@ def bifurcations(params: Params | None = None, boundary: Boundary | None = None,
         raise ParameterError("workers", workers, "an integer ≥ 1")
     if confirm_mc1 is not None:
         confirm_mc1 = check_range("confirm_mc1", confirm_mc1, 0.0, 0.9)
-    simulate = simulate or RunConfig(params, boundary, t_end)
+    simulate = simulate or RunConfig(params, boundary, t_end, hydrodynamics=hydrodynamics)
 
     out = {"quality": quality, "sphere_radius": boundary.sphere_radius, "t_end": t_end, "tol": tol,
-           "scan_torques": list(torques), "paper": PAPER_THRESHOLDS}
+           "scan_torques": list(torques), "paper": PAPER_THRESHOLDS,
+           "hydrodynamics": hydrodynamics.model}
     from .._progress import progress_bar
 
     n_chain = len(torques) if hysteresis and mc2 else 0
@@ -306,7 +315,7 @@ def bifurcations(params: Params | None = None, boundary: Boundary | None = None,
         chains = runner.start(_chain_task, [(simulate, torques, "up", tol), (simulate, torques[::-1], "down", tol)],
                               total=2 * n_chain) if n_chain else {}
         scan = runner.start(_probe_task, [(simulate, float(m), "scan") for m in torques]) if mc2 else {}
-        out.update(critical(params, boundary))
+        out.update(critical(params, boundary, hydrodynamics=hydrodynamics))
         out["M_c1_method"] = "linear stability: root of λ(M) (uncertainty = root tolerance)"
         if confirm_mc1 is not None and out["M_c1"] is not None:
             below, above = runner.probe(simulate, [out["M_c1"] * (1 + s * confirm_mc1) for s in (-1, 1)], "confirm")

@@ -34,6 +34,9 @@ Method
 * **Critical torque.** M_c1 is the root of λ(M) (Brent's method on a sign-changing
   bracket), F_c1 the thrust there: the paper's F = −∂𝓕/∂r⁽⁰⁾·e_z, the elastic force on
   the first bead (with a load sphere, (6πηa + drag of bead 0)·v).
+* **Mobility.** The local RFT of the paper, or (``hydrodynamics``) the nonlocal mobility of
+  :mod:`flagellum.hydro.dynamics`, then evaluated unfrozen: rebuilt at the state of every
+  evaluation, so that f, its fixed point and J are those of the nonlocal dynamics itself.
 
 Eigenvalues are in the co-rotating frame. A mode whose pattern turns at s|Im λ| (s = ±1)
 about e_z in that frame turns at Ω + s|Im λ| in the lab (``lab_frequency``); for the Hopf
@@ -51,13 +54,19 @@ import scipy.linalg as sla
 from scipy.optimize import brentq
 
 from ..errors import ParameterError, SimulationError
+from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
 from ..params import Params, check_range, check_real
-from ..rod.model import JACOBIAN_BAND, RodModel
+from ..rod.model import RodModel
 
 FD_STEP = 1e-7  #: central-difference step [µm or rad]; λ is converged to ~1e-8 /s with it
 MAX_TORQUE_STEP = 0.25  #: continuation step in M [pN·µm]
 K_START, CLAMP_STIFFNESS = 1e-2, 1e4  #: hook stiffnesses [pN·µm] of the continuation in k
+#: default bracket of :func:`critical_torque` [pN·µm] by mobility model. With the nonlocal
+#: mobility the slow tilt mode of the anchored filament grows weakly at small torques
+#: (λ = +0.009 /s at M = 0.5, −1.19 /s at M = 1; docs/hydrodynamics.md), so its bracket
+#: starts at 1
+BRACKETS = {"rft": (0.5, 2.0), "sbt": (1.0, 2.5)}
 
 
 # -- results -------------------------------------------------------------------------------
@@ -66,7 +75,8 @@ class RelativeEquilibrium:
     """The aligned, steadily rotating filament: a fixed point in the co-rotating frame.
 
     ``state`` is the rod state (bead 0 at the origin) whose material angles refer to
-    ``charts`` = (ref_u, ref_e); ``omega`` = Ω the rotation rate [rad/s]; ``thrust`` the
+    ``charts`` = (ref_u, ref_e); ``hydrodynamics`` the bead mobility (a nonlocal one
+    unfrozen, see :func:`_unfrozen`); ``omega`` = Ω the rotation rate [rad/s]; ``thrust`` the
     elastic force on bead 0 along e_z [pN]; ``velocity`` the speed of the load sphere
     along e_z [µm/s] (0 when anchored); ``residual`` the largest |ẏ| left in the reduced
     coordinates [µm/s or rad/s]; ``iterations`` the Newton iterations of the last solve.
@@ -82,10 +92,12 @@ class RelativeEquilibrium:
     velocity: float
     residual: float
     iterations: int
+    hydrodynamics: Hydrodynamics = Hydrodynamics()
 
     def model(self) -> RodModel:
         """A :class:`RodModel` in the co-rotating frame with this state's charts."""
-        m = RodModel(self.params, Motor(self.torque), self.boundary, omega_frame=self.omega)
+        m = RodModel(self.params, Motor(self.torque), self.boundary, omega_frame=self.omega,
+                     hydrodynamics=self.hydrodynamics)
         m.set_charts(*self.charts)
         return m
 
@@ -217,16 +229,26 @@ def _check_torque(torque) -> float:
     return m
 
 
-def _rigid_start(params: Params, boundary: Boundary, torque: float):
+def _unfrozen(hydrodynamics: Hydrodynamics | None) -> Hydrodynamics:
+    """The mobility the linearization sees: a nonlocal one rebuilt at every evaluation
+    (``refresh=0``), so that the Jacobian carries the change of the mobility with the bead
+    positions, (∂M/∂x) F, which the simulator's frozen correction ΔM leaves out within a
+    refresh interval."""
+    h = hydrodynamics or Hydrodynamics()
+    return h if h.is_local else replace(h, refresh=0.0)
+
+
+def _rigid_start(params: Params, boundary: Boundary, torque: float, hydrodynamics: Hydrodynamics):
     """Rigid-helix guess for a free hook: model, state and Ω = M/b.
 
     The stress-free helix is turned onto its pinned rotation axis and rotates at M/b, b the
     least eigenvalue of its rotational resistance about bead 0 (App. B,
-    :func:`flagellum.hydro.rft.pinned_rotation`).
+    :func:`flagellum.hydro.rft.pinned_rotation`; the local value is a close guess for a
+    nonlocal mobility too: ω/M differs by about 1 %, docs/hydrodynamics.md).
     """
     from ..hydro.rft import pinned_helix, pinned_omega_per_torque
 
-    m = RodModel(params, Motor(torque), boundary)
+    m = RodModel(params, Motor(torque), boundary, hydrodynamics=hydrodynamics)
     return m, m.initial_state(pinned_helix(params, boundary)), torque * pinned_omega_per_torque(params)
 
 
@@ -267,16 +289,18 @@ def _newton(red: _Reduced, omega: float, tol: float, max_iter: int):
 class _Branch:
     """Continuation of the aligned state in M for fixed params and boundary (cached)."""
 
-    def __init__(self, params: Params, boundary: Boundary, tol: float = 1e-10, max_iter: int = 25):
+    def __init__(self, params: Params, boundary: Boundary, tol: float = 1e-10, max_iter: int = 25,
+                 hydrodynamics: Hydrodynamics | None = None):
         if boundary.anchor == "free":
             raise ParameterError("anchor", "free", "'fixed' or 'sphere' for the stability analysis "
                                  "(a free swimmer's lateral drift is not quotiented out)")
         self.params, self.boundary = params, boundary
         self.tol, self.max_iter = tol, max_iter
+        self.hydrodynamics = _unfrozen(hydrodynamics)
         self.solutions: list[RelativeEquilibrium] = []
 
     def _solve(self, torque, y, charts, omega) -> RelativeEquilibrium | None:
-        m = RodModel(self.params, Motor(torque), self.boundary)
+        m = RodModel(self.params, Motor(torque), self.boundary, hydrodynamics=self.hydrodynamics)
         m.set_charts(*charts)
         red = _Reduced(m, y)
         omega, it, res = _newton(red, omega, self.tol, self.max_iter)
@@ -286,14 +310,15 @@ class _Branch:
         m.set_omega_frame(omega)
         f = m.rhs(0.0, red.y)
         return RelativeEquilibrium(self.params, self.boundary, torque, red.y.copy(), m.charts(),
-                                   float(omega), float(m.last_force[2]), float(f[5]), res, it)
+                                   float(omega), float(m.last_force[2]), float(f[5]), res, it,
+                                   self.hydrodynamics)
 
     def _start(self, torque: float, max_step: float) -> RelativeEquilibrium:
         """First solution on the branch, at a torque of the sign of ``torque``."""
         if self.boundary.hook == "free":  # the rigid helix at a small torque
             m0 = math.copysign(min(abs(torque), max_step), torque)
             while abs(m0) >= 1e-3:
-                model, y, om = _rigid_start(self.params, self.boundary, m0)
+                model, y, om = _rigid_start(self.params, self.boundary, m0, self.hydrodynamics)
                 eq = self._solve(m0, y, model.charts(), om)
                 if eq is not None:
                     return eq
@@ -301,12 +326,14 @@ class _Branch:
             raise SimulationError("no aligned rotating state found near the rigid helix")
         # stiffer hooks: the free-hook state, then continuation in log k (k → ∞: clamped)
         m0 = math.copysign(min(abs(torque), 1.0), torque)
-        eq = _Branch(self.params, replace(self.boundary, hook="free")).at(m0, max_step)
+        eq = _Branch(self.params, replace(self.boundary, hook="free"), self.tol, self.max_iter,
+                     self.hydrodynamics).at(m0, max_step)
         k_end = self.boundary.hook_stiffness if self.boundary.hook == "elastic" else CLAMP_STIFFNESS
         logk, dlog = math.log(min(K_START, k_end)), 0.25
         while True:
             b = Boundary(self.boundary.anchor, self.boundary.sphere_radius, "elastic", math.exp(logk))
-            nxt = _Branch(self.params, b, self.tol, self.max_iter)._solve(m0, eq.state, eq.charts, eq.omega)
+            nxt = _Branch(self.params, b, self.tol, self.max_iter,
+                          self.hydrodynamics)._solve(m0, eq.state, eq.charts, eq.omega)
             if nxt is None:
                 logk -= dlog
                 dlog /= 2
@@ -353,7 +380,8 @@ class _Branch:
 
 def relative_equilibrium(params: Params | None = None, torque: float = 1.0,
                          boundary: Boundary | None = None, *, tol: float = 1e-10,
-                         max_step: float = MAX_TORQUE_STEP) -> RelativeEquilibrium:
+                         max_step: float = MAX_TORQUE_STEP,
+                         hydrodynamics: Hydrodynamics | None = None) -> RelativeEquilibrium:
     """The aligned, steadily rotating (and, with a load sphere, translating) filament.
 
     Solves f(y; Ω) = 0 in the co-rotating frame by Newton with a phase condition, reached
@@ -366,6 +394,8 @@ def relative_equilibrium(params: Params | None = None, torque: float = 1.0,
     boundary : anchor and hook (default: fixed anchor, free hook, paper Sec. 2.3).
     tol : Newton tolerance on the update [µm, rad] (relative for Ω).
     max_step : largest continuation step in M [pN·µm].
+    hydrodynamics : the bead mobility (default local RFT); a nonlocal one is evaluated
+        unfrozen, at the state itself.
 
     Returns
     -------
@@ -374,7 +404,8 @@ def relative_equilibrium(params: Params | None = None, torque: float = 1.0,
     torque = _check_torque(torque)
     tol = check_range("tol", tol, 0.0, 1e-3)
     max_step = check_range("max_step", max_step, 0.0, 10.0)
-    return _Branch(params or Params(), boundary or Boundary(), tol).at(torque, max_step)
+    return _Branch(params or Params(), boundary or Boundary(), tol,
+                   hydrodynamics=hydrodynamics).at(torque, max_step)
 
 
 # -- spectrum ------------------------------------------------------------------------------
@@ -407,15 +438,16 @@ def _spectrum(eq: RelativeEquilibrium) -> tuple[np.ndarray, float]:
 
 def linear_stability(params: Params | None = None, torque: float = 1.0,
                      boundary: Boundary | None = None, n_eigs: int = 6, *,
-                     equilibrium: RelativeEquilibrium | None = None) -> StabilityResult:
+                     equilibrium: RelativeEquilibrium | None = None,
+                     hydrodynamics: Hydrodynamics | None = None) -> StabilityResult:
     """Eigenvalues of the aligned state's Jacobian, trivial modes removed.
 
     Parameters
     ----------
-    params, torque, boundary : as for :func:`relative_equilibrium`.
+    params, torque, boundary, hydrodynamics : as for :func:`relative_equilibrium`.
     n_eigs : how many leading eigenvalues to return.
     equilibrium : reuse a computed :class:`RelativeEquilibrium` (params, torque and
-        boundary are then taken from it).
+        boundary and hydrodynamics are then taken from it).
 
     Returns
     -------
@@ -424,21 +456,25 @@ def linear_stability(params: Params | None = None, torque: float = 1.0,
     """
     if isinstance(n_eigs, bool) or not isinstance(n_eigs, (int, np.integer)) or n_eigs < 1:
         raise ParameterError("n_eigs", n_eigs, "an integer ≥ 1")
-    eq = equilibrium or relative_equilibrium(params, torque, boundary)
+    eq = equilibrium or relative_equilibrium(params, torque, boundary, hydrodynamics=hydrodynamics)
     w, lab = _spectrum(eq)
     return StabilityResult(eq.torque, eq.omega, eq.thrust, eq.velocity, float(w[0].real),
                            float(abs(w[0].imag)), float(lab), w[:n_eigs], eq)
 
 
 def critical_torque(params: Params | None = None, boundary: Boundary | None = None,
-                    bracket: tuple[float, float] = (0.5, 2.0), xtol: float = 1e-4) -> CriticalTorque:
-    """Buckling threshold M_c1: the root of λ(M) in ``bracket`` (paper Sec. 3.1, Sec. 3.2).
+                    bracket: tuple[float, float] | None = None, xtol: float = 1e-4,
+                    hydrodynamics: Hydrodynamics | None = None) -> CriticalTorque:
+    """Buckling threshold M_c1: the root of λ(M) in ``bracket`` (paper Sec. 3.1, Sec. 3.2;
+    default :data:`BRACKETS` of the mobility model).
 
     All λ(M) evaluations share one continuation branch, so each Newton solve starts from the
-    nearest torque already solved. Raises :class:`ParameterError` unless
+    nearest torque already solved (``hydrodynamics`` as for :func:`relative_equilibrium`). Raises :class:`ParameterError` unless
     λ(M_lo) < 0 < λ(M_hi).
     """
     t0 = time.perf_counter()
+    if bracket is None:
+        bracket = BRACKETS[(hydrodynamics or Hydrodynamics()).model]
     try:
         lo, hi = (check_real("bracket", float(b)) for b in bracket)
     except (TypeError, ValueError):
@@ -448,7 +484,7 @@ def critical_torque(params: Params | None = None, boundary: Boundary | None = No
     for m in (lo, hi):
         _check_torque(m)
     xtol = check_range("xtol", xtol, 0.0, 1.0)
-    branch = _Branch(params or Params(), boundary or Boundary())
+    branch = _Branch(params or Params(), boundary or Boundary(), hydrodynamics=hydrodynamics)
     results: dict[float, StabilityResult] = {}
 
     def lam(M: float) -> float:
@@ -497,8 +533,10 @@ def simulated_growth_rate(equilibrium: RelativeEquilibrium, t_end: float, *,
     red = _Reduced(m, equilibrium.state)
     xi = np.random.default_rng(seed).normal(size=red.size)
     y0 = red.embed(amplitude * xi / np.linalg.norm(xi))
-    n, (kl, ku) = len(y0), JACOBIAN_BAND
-    sparsity = diags([np.ones(n - abs(k)) for k in range(-kl, ku + 1)], list(range(-kl, ku + 1)))
+    n, (kl, ku) = len(y0), m.jacobian_band
+    # the unfrozen nonlocal mobility couples every bead: a dense Jacobian
+    sparsity = diags([np.ones(n - abs(k)) for k in range(-kl, ku + 1)], list(range(-kl, ku + 1))) \
+        if m.hydrodynamics.is_local else None
     t = np.linspace(0.0, t_end, samples)
     sol = solve_ivp(m.rhs, (0.0, t_end), y0, method=method, t_eval=t, rtol=rtol, atol=atol,
                     jac_sparsity=sparsity)
@@ -513,6 +551,6 @@ def simulated_growth_rate(equilibrium: RelativeEquilibrium, t_end: float, *,
     return GrowthFit(float(rate), t, dev, t[k], a[k])
 
 
-__all__ = ["RelativeEquilibrium", "StabilityResult", "CriticalTorque", "GrowthFit",
+__all__ = ["BRACKETS", "RelativeEquilibrium", "StabilityResult", "CriticalTorque", "GrowthFit",
            "relative_equilibrium", "linear_stability", "critical_torque",
            "simulated_growth_rate"]

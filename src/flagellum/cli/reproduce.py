@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from ._options import output_option
+from ._options import hydro_from_cli, hydro_options, output_option
 from ._output import emit_json, emit_table
 
 
@@ -16,8 +16,9 @@ from ._output import emit_json, emit_table
                default="flagellum-reproduce", show_default=True)
 @click.option("--quality", default="quick", show_default=True,
               help="quick (CI-size runs) or full (publication quality)")
+@hydro_options
 @click.option("--json", "as_json", is_flag=True, help="print the headline numbers as JSON")
-def reproduce(figure, out_dir, quality, as_json):
+def reproduce(figure, out_dir, quality, as_json, **kwargs):
     """Reproduce a figure of the paper: fig3, fig4, fig5, fig6, fig7, fig8 or all.
 
     Writes DIR/FIG/FIG.png and .pdf, the data (CSV, HDF5) and comparison.md (the paper's
@@ -26,7 +27,7 @@ def reproduce(figure, out_dir, quality, as_json):
     from ..reproduce import reproduce as run_target
 
     echo = None if as_json else (lambda msg: click.echo(msg, err=True))
-    res = run_target(figure.lower(), out_dir, quality, echo=echo)
+    res = run_target(figure.lower(), out_dir, quality, echo=echo, hydrodynamics=hydro_from_cli(kwargs))
     if as_json:
         emit_json(_strip(res))
         return

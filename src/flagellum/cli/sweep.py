@@ -18,6 +18,8 @@ _HELP = {
     "sphere_radius": "load sphere radius a [µm]",
     "hook": "free, elastic (implied by --hook-stiffness), clamped",
     "hook_stiffness": "hook stiffness k [pN·µm]",
+    "hydrodynamics": "filament mobility: rft (local, the paper's) or sbt (nonlocal)",
+    "hydro_refresh": "sbt: rebuild the frozen nonlocal mobility once a bead moved this far [µm]",
     "time": "simulated time per point [s] (default 0.3)",
     "save_every": "save interval [s] (default time/300)",
     "average_from": "average from this time on [s] (default: last half)",

@@ -21,12 +21,16 @@ TARGETS = FIGURES + ("all",)
 
 
 def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality: str = "quick",
-              cache: Cache | None = None, echo=None) -> dict:
+              cache: Cache | None = None, echo=None, hydrodynamics=None) -> dict:
     """Run one figure (``"fig3"`` … ``"fig8"``) or ``"all"``; returns the headline numbers.
 
     ``cache`` (:class:`.shared.Cache`) holds work shared between figures (the simulation
     sweep of Fig. 3/4, the critical points of Fig. 5/7) when several run in one process.
     Each figure module runs as compute → analyse → plot → write (its ``run``).
+    ``hydrodynamics`` (:class:`~flagellum.hydro.options.Hydrodynamics`, default local RFT)
+    is the filament's mobility in the simulations and stability analyses of Fig. 3–5 and
+    Fig. 7 (the thermal runs of Fig. 4 and the theory of Fig. 6 and Fig. 8 keep RFT); it
+    replaces that of a given ``cache``.
     """
     from ..errors import ParameterError
 
@@ -37,6 +41,8 @@ def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality:
     if out.exists() and not out.is_dir():
         raise ParameterError("output", str(out), "a directory")
     cache = Cache() if cache is None else cache
+    if hydrodynamics is not None:
+        cache.hydrodynamics = hydrodynamics
     if echo:
         cache.log = True
     targets = FIGURES if target == "all" else (target,)
@@ -47,12 +53,28 @@ def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality:
         mod = importlib.import_module(f".{fig}", __name__)
         t = Timer()
         result[fig] = mod.run(out / fig, quality, cache)
+        if cache.hydrodynamics is not None and not cache.hydrodynamics.is_local:
+            _mark_hydrodynamics(out / fig, result[fig], cache.hydrodynamics)
         if echo:
             echo(f"  {fig} done in {t.seconds:.1f} s → {out / fig}")
     if target != "all":
         return result[target]
     _write_index(out, result, quality, timer.seconds)
     return {**result, "wall_seconds": timer.seconds, "quality": quality}
+
+
+def _mark_hydrodynamics(fig_dir: Path, result: dict, hydrodynamics) -> None:
+    """State a nonlocal mobility in the figure's headline numbers and ``comparison.md``."""
+    from ..io import atomic_write_text
+
+    result["hydrodynamics"] = hydrodynamics.model
+    p = fig_dir / "comparison.md"
+    if p.exists():
+        text = p.read_text()
+        text = text.rstrip("\n") + ("\n" if "\nNotes:\n" in text else "\n\nNotes:\n\n")
+        atomic_write_text(p, text + f"- Hydrodynamics: `{hydrodynamics.model}` (refresh "
+                             f"{hydrodynamics.refresh:g} µm) in the runs and stability analyses of "
+                             "this figure, not the paper's local RFT (docs/hydrodynamics.md).\n")
 
 
 def _write_index(out: Path, result: dict, quality: str, seconds: float) -> None:

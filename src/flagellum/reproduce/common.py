@@ -220,7 +220,9 @@ def simulate_point(spec: dict) -> dict:
     the stress-free helix) or ``"step"`` (the paper's protocol, Sec. 3.1.2: rotate at M = 1
     until ``t_step``, then ramp to ``torque`` within 0.01 s); ``frame`` (``"auto"`` or
     ``"lab"``); ``thermal`` with ``seed`` and ``dt``; ``window`` — the averaging window
-    starts at t_end − window·(t_end − t_start); ``series`` — keep time series for plots.
+    starts at t_end − window·(t_end − t_start); ``series`` — keep time series for plots;
+    ``hydrodynamics`` — the filament's mobility (a
+    :class:`~flagellum.hydro.options.Hydrodynamics`; default local RFT).
 
     Returns the observables (thrust mean/min/max/std, ω = mean motor speed, χ, ⟨r⟩, σ,
     regime) or ``error`` when the run failed with every solver setting tried.
@@ -255,7 +257,8 @@ def simulate_point(spec: dict) -> dict:
 
     def make(method, frame):
         solver = SolverOptions(method=method, frame=frame, dt=float(spec.get("dt", 5e-5)))
-        return Simulator(params, motor, thermal=thermal, seed=int(spec.get("seed", 0)), solver=solver)
+        return Simulator(params, motor, thermal=thermal, seed=int(spec.get("seed", 0)), solver=solver,
+                         hydrodynamics=spec.get("hydrodynamics"))
 
     tr, _, method, frame, errors = run_first_success(make, attempts, t_end, t_end / n_save)
     err = errors[-1] if tr is None else None

@@ -41,20 +41,22 @@ THERMAL = {"quick": ((0.5, 0.15, 2 / 3),),
            "full": ((0.5, 1.0, 0.9), (0.8, 1.0, 0.9), (1.0, 1.0, 0.9), (1.6, 1.2, 0.6))}
 
 
-def _lambda_point(M: float) -> dict:
+def _lambda_point(job) -> dict:
     from ..analysis.stability import linear_stability
     from ..params import Params
 
+    M, hydrodynamics = job
     try:
-        r = linear_stability(Params(), float(M))
+        r = linear_stability(Params(), float(M), hydrodynamics=hydrodynamics)
     except Exception as exc:  # noqa: BLE001 - report and go on
         return {"torque": M, "error": str(exc)}
     return {"torque": M, "lambda": r.lambda_, "frequency": r.frequency,
             "lab_frequency": r.lab_frequency, "omega": r.omega, "thrust": r.thrust}
 
 
-def lambda_curve(quality: str) -> list[dict]:
-    return sorted(pmap(_lambda_point, sorted(LAMBDA_TORQUES[quality])), key=lambda p: p["torque"])
+def lambda_curve(quality: str, hydrodynamics=None) -> list[dict]:
+    jobs = [(M, hydrodynamics) for M in sorted(LAMBDA_TORQUES[quality])]
+    return sorted(pmap(_lambda_point, jobs), key=lambda p: p["torque"])
 
 
 def thermal_specs(quality: str, log: bool = False) -> list[dict]:
@@ -136,9 +138,10 @@ def compute(quality: str, cache: Cache | None = None) -> Fig4Data:
 
     cache = Cache() if cache is None else cache
     params = Params()
-    # thermal runs and the λ curve first: the sweep may already be cached by Fig. 3
+    # thermal runs and the λ curve first: the sweep may already be cached by Fig. 3; the
+    # thermal runs keep the local mobility (no thermal noise with a nonlocal one)
     thermal = pmap(simulate_point, thermal_specs(quality, cache.log))
-    lam = lambda_curve(quality)
+    lam = lambda_curve(quality, cache.hydrodynamics)
     points = cache.sweep(quality).points
     crit = cache.anchored_threshold().values
     rft_omega = float(rft_summary(params)["pinned"]["omega_per_torque"])

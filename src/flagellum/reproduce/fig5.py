@@ -78,7 +78,9 @@ def _confirm(job: dict) -> dict:
     from ..motor import Boundary
     from ..params import Params
 
-    run = RunConfig(Params(), Boundary(anchor="sphere", sphere_radius=1.0 / job["inv_a"]), job["t_end"])
+    hydro = {"hydrodynamics": job["hydrodynamics"]} if job.get("hydrodynamics") else {}
+    run = RunConfig(Params(), Boundary(anchor="sphere", sphere_radius=1.0 / job["inv_a"]), job["t_end"],
+                    **hydro)
     probe, _ = run(job["torque"])
     return {**job, **{k: probe.get(k) for k in ("regime", "thrust", "sigma_over_sigma0",
                                                  "centroid_offset", "wall_seconds", "error")}}
@@ -88,12 +90,12 @@ def _as_expected(c: dict) -> bool:
     return c.get("regime") in (("aligned",) if c["side"] == "below" else ("buckled", "oscillating"))
 
 
-def confirmations(points: list[dict], quality: str) -> list[dict]:
+def confirmations(points: list[dict], quality: str, hydrodynamics=None) -> list[dict]:
     """Simulate just below and above the linear-stability M_c1 at a few 1/a."""
     inv, frac, t_end = CONFIRM[quality]
     mc = {p["inv_a"]: p["M_c1"] for p in points if "error" not in p}
     jobs = [{"inv_a": v, "torque": mc[v] * (1 + s * frac), "side": "below" if s < 0 else "above",
-             "t_end": t_end, "cost": mc[v]} for v in inv if v in mc for s in (-1, 1)]
+             "t_end": t_end, "cost": mc[v], "hydrodynamics": hydrodynamics} for v in inv if v in mc for s in (-1, 1)]
     return pmap(_confirm, jobs) if jobs else []
 
 
@@ -192,7 +194,7 @@ def compute(quality: str, cache: Cache | None = None) -> Fig5Data:
     cache = Cache() if cache is None else cache
     points = list(cache.load_sphere_thresholds(quality, INV_A[quality]).points)
     theory = {rc: rod_theory_curve(theory_inv_a(quality), rc) for rc in (False, True)}
-    return Fig5Data(tuple(points), theory, tuple(confirmations(points, quality)))
+    return Fig5Data(tuple(points), theory, tuple(confirmations(points, quality, cache.hydrodynamics)))
 
 
 def write(out_dir: Path, data: Fig5Data, quality: str) -> list[Path]:

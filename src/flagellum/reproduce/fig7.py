@@ -56,7 +56,8 @@ def red_dots(quality: str, cache: Cache | None = None) -> list[dict]:
     for q in (quality, "full", "quick"):
         if q in cache.load_spheres:
             return cache.load_spheres[q].found
-    return LoadSphereThresholds.compute(DOT_INV_A[quality], fallback_guess=False).found
+    return LoadSphereThresholds.compute(DOT_INV_A[quality], fallback_guess=False,
+                                        hydrodynamics=cache.hydrodynamics).found
 
 
 def shoulder(levels: dict, level: float = 75.0) -> float:

@@ -9,14 +9,20 @@
 
 A :class:`Cache` holds them for the figures of one call (``reproduce all`` computes the
 sweep and the load-sphere points once); each figure also runs alone with an empty cache.
+The cache also carries the filament's mobility (``hydrodynamics``) into every run and
+stability analysis computed through it.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from .common import Timer, pmap, simulate_point
+
+if TYPE_CHECKING:
+    from ..hydro.options import Hydrodynamics
 
 # -- the deterministic sweep of Fig. 3 and Fig. 4 ----------------------------------------------
 
@@ -44,7 +50,7 @@ REGIME_COLORS = {"reorienting": "tab:green", "aligned": "tab:blue", "buckled": "
                  "oscillating": "tab:red"}
 
 
-def sweep_specs(quality: str, log: bool = False) -> list[dict]:
+def sweep_specs(quality: str, log: bool = False, hydrodynamics: Hydrodynamics | None = None) -> list[dict]:
     """The :func:`~.common.simulate_point` specs of the sweep (longest runs cost most)."""
     shown = set(PANEL_TORQUES[quality].values())
     specs = []
@@ -53,7 +59,8 @@ def sweep_specs(quality: str, log: bool = False) -> list[dict]:
         specs.append({"torque": M, "t_end": t_end + (0.06 if step else 0.0),
                       "protocol": "step" if step else "rest",
                       "frame": "lab" if M >= 2.0 else "auto", "series": M in shown,
-                      "cost": t_end * (60.0 if M > 1.05 else 3.0), "log": log})
+                      "cost": t_end * (60.0 if M > 1.05 else 3.0), "log": log,
+                      "hydrodynamics": hydrodynamics})
     return specs
 
 
@@ -65,8 +72,9 @@ class TorqueSweep:
     points: tuple[dict, ...]
 
     @classmethod
-    def compute(cls, quality: str, log: bool = False) -> "TorqueSweep":
-        return cls(quality, tuple(pmap(simulate_point, sweep_specs(quality, log))))
+    def compute(cls, quality: str, log: bool = False,
+                hydrodynamics: Hydrodynamics | None = None) -> "TorqueSweep":
+        return cls(quality, tuple(pmap(simulate_point, sweep_specs(quality, log, hydrodynamics))))
 
 
 @dataclass(frozen=True)
@@ -77,12 +85,12 @@ class AnchoredThreshold:
     values: dict
 
     @classmethod
-    def compute(cls) -> "AnchoredThreshold":
+    def compute(cls, hydrodynamics: Hydrodynamics | None = None) -> "AnchoredThreshold":
         from ..analysis.stability import critical_torque
         from ..params import Params
 
         t = Timer()
-        ct = critical_torque(Params())
+        ct = critical_torque(Params(), hydrodynamics=hydrodynamics)
         return cls({**ct.to_dict(), "wall_seconds": t.seconds})
 
 
@@ -98,8 +106,9 @@ def rod_theory_curve(inv_a, radius_correction: bool = False) -> dict:
 
 
 def load_sphere_threshold(job: dict) -> dict:
-    """M_c1 at one 1/a (``job``: ``inv_a``, ``guess``), the bracket widened around the
-    theory's guess until λ changes sign; ``error`` when no root was found."""
+    """M_c1 at one 1/a (``job``: ``inv_a``, ``guess``, optional ``hydrodynamics``), the
+    bracket widened around the theory's guess until λ changes sign; ``error`` when no root
+    was found."""
     from ..analysis.stability import critical_torque
     from ..errors import ParameterError
     from ..motor import Boundary
@@ -112,7 +121,8 @@ def load_sphere_threshold(job: dict) -> dict:
     last = None
     for _ in range(4):
         try:
-            ct = critical_torque(Params(), boundary, bracket=(lo, hi), xtol=1e-3)
+            ct = critical_torque(Params(), boundary, bracket=(lo, hi), xtol=1e-3,
+                                 hydrodynamics=job.get("hydrodynamics"))
             return {"inv_a": inv_a, "a": math.inf if inv_a == 0 else 1 / inv_a,
                     "M_c1": ct.critical_torque, "F_c1": ct.critical_force, "omega": ct.omega,
                     "velocity": ct.velocity, "chi_onset": ct.lab_frequency,
@@ -134,7 +144,8 @@ class LoadSphereThresholds:
     points: tuple[dict, ...]
 
     @classmethod
-    def compute(cls, inv_a, fallback_guess: bool = True) -> "LoadSphereThresholds":
+    def compute(cls, inv_a, fallback_guess: bool = True,
+                hydrodynamics: Hydrodynamics | None = None) -> "LoadSphereThresholds":
         """Seeded by :func:`rod_theory_curve`; where the theory has no point the guess is
         1 + 1/a with ``fallback_guess`` (else NaN: that 1/a reports an error)."""
         inv = tuple(float(v) for v in inv_a)
@@ -143,7 +154,7 @@ class LoadSphereThresholds:
         for v, g in zip(inv, guess):
             ok = math.isfinite(g) or not fallback_guess
             jobs.append({"inv_a": v, "guess": float(g) if ok else 1.0 + v,
-                         "cost": float(g) if ok else 5.0})
+                         "cost": float(g) if ok else 5.0, "hydrodynamics": hydrodynamics})
         return cls(inv, tuple(pmap(load_sphere_threshold, jobs)))
 
     @property
@@ -159,23 +170,25 @@ class Cache:
     """The shared results of one ``reproduce`` call, by quality; ``log`` prints each run."""
 
     log: bool = False
+    hydrodynamics: Hydrodynamics | None = None  #: the filament's mobility (default local RFT)
     sweeps: dict[str, TorqueSweep] = field(default_factory=dict)
     anchored: AnchoredThreshold | None = None
     load_spheres: dict[str, LoadSphereThresholds] = field(default_factory=dict)
 
     def sweep(self, quality: str) -> TorqueSweep:
         if quality not in self.sweeps:
-            self.sweeps[quality] = TorqueSweep.compute(quality, self.log)
+            self.sweeps[quality] = TorqueSweep.compute(quality, self.log, self.hydrodynamics)
         return self.sweeps[quality]
 
     def anchored_threshold(self) -> AnchoredThreshold:
         if self.anchored is None:
-            self.anchored = AnchoredThreshold.compute()
+            self.anchored = AnchoredThreshold.compute(self.hydrodynamics)
         return self.anchored
 
     def load_sphere_thresholds(self, quality: str, inv_a) -> LoadSphereThresholds:
         if quality not in self.load_spheres:
-            self.load_spheres[quality] = LoadSphereThresholds.compute(inv_a)
+            self.load_spheres[quality] = LoadSphereThresholds.compute(inv_a,
+                                                                      hydrodynamics=self.hydrodynamics)
         return self.load_spheres[quality]
 
 

@@ -233,7 +233,8 @@ class RodModel:
     def rhs(self, t: float, y: np.ndarray, noise_f=None, noise_m=None, out=None) -> np.ndarray:
         """dy/dt at time t (scipy's ``fun(t, y)``); optional thermal forces/torques."""
         if self._nonlocal and (self._frozen is None or self.hydrodynamics.refresh == 0.0):
-            self.refresh_mobility(y, force=True)
+            # refresh 0: rebuilt unless the beads are exactly where it was built (the same ΔM)
+            self.refresh_mobility(y, force=self._frozen is None)
         ydot = np.empty_like(y) if out is None else out
         self.prm[K.P_TORQUE] = self.motor(t)
         res = K.rhs(y, ydot, self.prm, self.iprm, self.ref_u, self.ref_e, self.ref_m,

@@ -306,31 +306,36 @@ class Simulator:
     def _motor_angle(self) -> float:
         """Accumulated rotation of the hook frame about e_z (lab), continuous in time.
 
-        The twist about z of the hook frame relative to its rest orientation (tangent along
-        −e_z): the swing–twist split 2 atan2(R10 − R01, 1 + tr R) of R = D diag(1, −1, −1),
-        D = [e1 e2 t] (singular only for a hook turned to +e_z; the split of D itself is
-        singular at the rest orientation). It is defined modulo 2π and unwrapped against the
-        rotation predicted from the last measured rate (at first the frame rate; capped at
-        3× the rigid-helix rate, so a noisy interval cannot lock the unwrapping onto an alias
-        one turn per record away); records may be several turns apart as long as the rate
-        changes by less than π per interval.
+        The hook frame is its chart's reference frame A = [a1, t × a1, t] turned about the
+        tangent by the material angle θ0 of the state. θ0 is integrated with the state and
+        never wrapped, so it carries the fast motor rotation (and the twist-up of a filament
+        started from rest) without aliasing however far apart the records are; only the
+        reference frame's twist about z is taken modulo 2π — the swing–twist split
+        2 atan2(B10 − B01, 1 + tr B) of B = A diag(1, −1, −1) relative to the rest orientation
+        (tangent along −e_z) — and it changes slowly (the reference vector a1 follows the
+        tangent by parallel transport and does not turn with the filament), so it is unwrapped
+        against its previous value. The angle is that twist − θ0 (θ0 is measured about t,
+        i.e. about −e_z at rest) plus the computational frame's angle; its slope is the
+        rotation rate about the local helix axis at the motor (paper Sec. 3.1.2).
         """
         fr = self.model.frames()  # at the last rhs call
-        d = np.stack([fr.e1[0], -fr.e2[0], -fr.tangents[0]], axis=1)  # D diag(1, −1, −1)
-        raw = 2.0 * math.atan2(d[1, 0] - d[0, 1], 1.0 + np.trace(d)) + self.frame_angle
+        t, a1 = fr.tangents[0], fr.reference[0]
+        b = np.stack([a1, -np.cross(t, a1), -t], axis=1)  # A diag(1, −1, −1)
+        raw = 2.0 * math.atan2(b[1, 0] - b[0, 1], 1.0 + np.trace(b))
         last = self._last_motor
         if last is None:
-            angle, rate = raw, self.model.omega_frame
+            twist = raw
         else:
-            t0, raw0, angle0, rate0 = last
-            dt = self.t - t0
-            cap = 3.0 * self._omega_scale
-            pred = min(max(rate0, -cap), cap) * dt
-            angle = angle0 + pred + (raw - raw0 - pred + math.pi) % (2 * math.pi) - math.pi
-            rate = (angle - angle0) / dt if dt > 0 else rate0
-        if not self.thermal and self.model.omega_frame == 0.0 and last is None:
-            rate = self.model.last_motor_speed
-        self._last_motor = (self.t, raw, angle, rate)
+            t0, raw0, twist0, rate0, angle0 = last
+            twist = twist0 + (raw - raw0 + math.pi) % (2 * math.pi) - math.pi
+        angle = twist - float(self.y[6]) + self.frame_angle
+        if last is None:
+            rate = self.model.omega_frame
+            if not self.thermal and self.model.omega_frame == 0.0:
+                rate = self.model.last_motor_speed
+        else:
+            rate = (angle - angle0) / (self.t - t0) if self.t > t0 else rate0
+        self._last_motor = (self.t, raw, twist, rate, angle)
         return angle
 
     def _check(self, y: np.ndarray) -> None:
@@ -530,7 +535,16 @@ class Simulator:
         sim._place(State(arrays["y"], charts, float(a["frame_angle"])), float(a["t"]),
                    float(a["omega_frame"]))
         sim._rng_state = json.loads(a["rng_state"])
-        sim._last_motor = tuple(json.loads(a["last_motor"]))
+        last = tuple(json.loads(a["last_motor"]))
+        if len(last) == 4:  # (t, raw, angle, rate) of the swing–twist split of the material frame
+            t0, _, angle0, rate0 = last
+            sim._last_motor = None
+            sim.model.rhs(sim.t, sim.y)
+            sim._motor_angle()  # the reference frame's twist at the checkpoint's state
+            _, raw, twist, _, angle = sim._last_motor
+            sim._last_motor = (t0, raw, twist + angle0 - angle, rate0, angle0)
+        else:
+            sim._last_motor = last
         sim.wall_seconds = float(a["wall_seconds"])
         return sim, json.loads(a["plan"]), int(a["n_done"])
 

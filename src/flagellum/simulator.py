@@ -159,8 +159,9 @@ class Simulator:
                                  "run (noise of the nonlocal mobility is not implemented)")
         if self.thermal and self.solver.method != "implicit":
             raise ParameterError("method", self.solver.method, "'implicit' for a thermal run")
-        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
-            raise ParameterError("seed", seed, "a non-negative integer")
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
+                                 or not 0 <= seed < 2**63):  # an int64 attribute of the files
+            raise ParameterError("seed", seed, "an integer in [0, 2**63 - 1]")
         self.seed = int(seed) if seed is not None else 0
         f = self.solver.frame
         self._omega_scale = pinned_omega_per_torque(self.params) * max(
@@ -492,7 +493,7 @@ class Simulator:
         with the same random stream, so the final file is identical (deterministic runs
         bit-for-bit).
         """
-        files = RunFiles(output)
+        files = RunFiles(output, name="resume")
         attrs = files.attrs()
         try:
             if str(attrs.get("status", "")) == COMPLETE:  # killed after writing the file, before tidying up

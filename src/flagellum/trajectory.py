@@ -180,8 +180,8 @@ class RunFiles:
     ``n_parts``: the part files written so far (the next part's index).
     """
 
-    def __init__(self, path: str | Path, n_parts: int = 0):
-        self.path = Path(path)
+    def __init__(self, path: str | Path, n_parts: int = 0, name: str = "output"):
+        self.path = io.output_file(path, name)  # ``name``: the parameter that gave the path
         self.n_parts = int(n_parts)
 
     @property

@@ -76,7 +76,7 @@ def run(argv=None) -> int:
     try:
         main.main(args=argv, prog_name="flagellum", standalone_mode=False)
     except FlagellumError as exc:
-        click.echo(f"flagellum: error: {exc}", err=True)
+        click.echo(f"flagellum: error: {' '.join(str(exc).split())}", err=True)  # one line
         return 2
     except click.exceptions.Abort:
         click.echo("flagellum: aborted", err=True)

@@ -235,7 +235,6 @@ def hydro_from_cli(kwargs: dict):
 
 def existing_file(path: str) -> Path:
     """The trajectory file argument of ``render`` and ``export``, checked to exist."""
-    p = Path(path)
-    if not p.is_file():
-        raise ParameterError("file", path, "an existing flagellum HDF5 trajectory file")
-    return p
+    from ..io import input_file
+
+    return input_file(path, "file")

@@ -80,3 +80,56 @@ def test_output_onto_a_non_regular_file_is_refused(kind, cli, tmp_path):
     assert target.read_text() == "precious"
     if kind == "symlink":
         assert out.is_symlink()
+
+
+# -- nothing accepted silently ----------------------------------------------------------
+
+@pytest.mark.parametrize("args,name", [
+    (["simulate", "--resume", "{tmp}/x.h5", "--torque", "2", "--output", "{tmp}/y.h5"], "--torque, --output"),
+    (["simulate", "--resume", "{tmp}/x.h5", "--config", "{tmp}/c.toml"], "--config"),
+    (["simulate", "--resume", "{tmp}/x.h5", "--kT", "0.004"], "--kT"),
+    (["simulate", "--hook", "clamped", "--hook-stiffness", "5"], "hook_stiffness"),
+    (["simulate", "--hook", "free", "--hook-stiffness", "5"], "hook_stiffness"),
+    (["simulate", "--theta", "0.5", "--method", "cvode"], "theta"),
+    (["simulate", "--theta", "0.5", "--scheme", "bdf2", "--method", "implicit"], "theta"),
+    (["simulate", "--scheme", "theta"], "scheme"),
+    (["simulate", "--anchor", "fixed", "--sphere-radius", "1"], "sphere_radius"),
+    (["simulate", "--checkpoint-every", "0.1"], "checkpoint_every"),
+    (["simulate", "--time", "1e-320"], "time"),
+    (["bench", "--window", "1e-320"], "window"),
+    (["sweep", "--torque", "1:2", "--seed", "-1", "-o", "{tmp}/s.h5"], "seed"),
+    (["sweep", "--torque", "1:2", "--kT", "0", "-o", "{tmp}/s.h5"], "kT"),
+    (["sweep", "--torque", "1:2", "--save-every", "1e-320", "-o", "{tmp}/s.h5"], "save_every"),
+])
+def test_refused_instead_of_silently_ignored(args, name, cli, tmp_path):
+    code, _, err = cli(*(a.replace("{tmp}", str(tmp_path)) for a in args))
+    assert_one_line_error(code, err, name)
+    assert not (tmp_path / "s.h5").exists()
+
+
+def test_boundary_refuses_unused_values():
+    from flagellum.motor import Boundary
+
+    with pytest.raises(ParameterError, match="sphere_radius"):
+        Boundary(anchor="fixed", sphere_radius="abc")
+    with pytest.raises(ParameterError, match="hook_stiffness"):
+        Boundary.from_flags(hook="clamped", hook_stiffness=5.0)
+    # the documented defaults of the flags: a radius alone is a load sphere, k alone elastic
+    assert Boundary.from_flags(sphere_radius=1.0).anchor == "sphere"
+    assert Boundary.from_flags(hook_stiffness=5.0).hook == "elastic"
+
+
+def test_sweep_points_are_checked_before_the_first_runs():
+    from flagellum.sweep import PointRun
+
+    for values, name in (({"seed": -1}, "seed"), ({"kT": 0.0}, "kT"),
+                         ({"save_every": 1e-320}, "save_every"), ({"time": 1e-320}, "time")):
+        with pytest.raises(ParameterError, match=name):
+            PointRun.from_values(values)
+
+
+def test_checkpoint_every_needs_an_output():
+    from flagellum.simulator import Simulator
+
+    with pytest.raises(ParameterError, match="checkpoint_every"):
+        Simulator(Params.from_flat({"length": 2.0})).run(0.01, checkpoint_every=0.005)

@@ -44,6 +44,7 @@ from .trajectory import COMPLETE, OutputError, RunFiles, Trajectory
 
 MAX_STRAIN = 0.5  #: a bond stretched or compressed by more than this is a blow-up
 MAX_RECORDS = 10**6  #: records per run (memory of the returned trajectory)
+MIN_SPAN = 1e-9  #: shortest run [s]: CVODE cannot step across a span at the rounding of t
 CHART_LIMIT = -0.8  #: re-centre a chart (and restart the integrator) when t·u falls below this
 
 
@@ -114,6 +115,22 @@ class State:
     frame_angle: float = 0.0
 
 
+def check_setup(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynamics,
+                thermal: bool, seed) -> None:
+    """The checks of a :class:`Simulator`'s arguments that the dataclasses cannot make alone
+    (also what a sweep checks of its points before the first runs)."""
+    if thermal and params.fluid.kT <= 0:
+        raise ParameterError("kT", params.fluid.kT, "> 0 for a thermal run")
+    if thermal and not hydrodynamics.is_local:
+        raise ParameterError("hydrodynamics", hydrodynamics.model, "'rft' for a thermal "
+                             "run (noise of the nonlocal mobility is not implemented)")
+    if thermal and solver.method != "implicit":
+        raise ParameterError("method", solver.method, "'implicit' for a thermal run")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
+                             or not 0 <= seed < 2**63):  # an int64 attribute of the files
+        raise ParameterError("seed", seed, "an integer in [0, 2**63 - 1]")
+
+
 def _rotate_z(v: np.ndarray, angle: float) -> np.ndarray:
     c, s = math.cos(angle), math.sin(angle)
     out = np.array(v, float, copy=True)
@@ -152,16 +169,7 @@ class Simulator:
         self.boundary = boundary or Boundary()
         self.solver = solver or SolverOptions(method="implicit" if thermal else "cvode")
         self.thermal = bool(thermal)
-        if self.thermal and self.params.fluid.kT <= 0:
-            raise ParameterError("kT", self.params.fluid.kT, "> 0 for a thermal run")
-        if self.thermal and not self.hydrodynamics.is_local:
-            raise ParameterError("hydrodynamics", self.hydrodynamics.model, "'rft' for a thermal "
-                                 "run (noise of the nonlocal mobility is not implemented)")
-        if self.thermal and self.solver.method != "implicit":
-            raise ParameterError("method", self.solver.method, "'implicit' for a thermal run")
-        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
-                                 or not 0 <= seed < 2**63):  # an int64 attribute of the files
-            raise ParameterError("seed", seed, "an integer in [0, 2**63 - 1]")
+        check_setup(self.params, self.solver, self.hydrodynamics, self.thermal, seed)
         self.seed = int(seed) if seed is not None else 0
         f = self.solver.frame
         self._omega_scale = pinned_omega_per_torque(self.params) * max(
@@ -375,6 +383,8 @@ class Simulator:
         read back from it.
         A blow-up raises :class:`SimulationError` after saving the last good state.
         """
+        if checkpoint_every is not None and output is None:
+            raise ParameterError("checkpoint_every", checkpoint_every, "given only with an output file")
         plan = self._plan(t_end, save_every, checkpoint_every)
         files = None
         if output is not None:
@@ -383,16 +393,7 @@ class Simulator:
         return self._loop(plan, 0, files, progress)
 
     def _plan(self, t_end, save_every, checkpoint_every) -> dict:
-        t_end = check_range("time", t_end, self.t, 1e6)
-        save_every = positive("save_every", save_every if save_every is not None
-                              else (t_end - self.t) / 200, t_end - self.t)
-        if (t_end - self.t) / save_every > MAX_RECORDS:
-            raise ParameterError("save_every", save_every, f"at least time/{MAX_RECORDS:.0e} = "
-                                 f"{(t_end - self.t) / MAX_RECORDS:g} s (at most {MAX_RECORDS:.0e} records)")
-        if checkpoint_every is not None:
-            checkpoint_every = positive("checkpoint_every", checkpoint_every, 1e6)
-        flush_every = max(1, int(round(checkpoint_every / save_every))) if checkpoint_every else 1000
-        return {"t0": self.t, "t_end": t_end, "save_every": save_every, "flush_every": flush_every}
+        return plan_run(self.t, t_end, save_every, checkpoint_every)
 
     @staticmethod
     def _times(plan) -> np.ndarray:
@@ -534,6 +535,21 @@ class Simulator:
         return sim, json.loads(a["plan"]), int(a["n_done"])
 
 
+def plan_run(t0: float, t_end, save_every=None, checkpoint_every=None) -> dict:
+    """The records of a run from ``t0`` to ``t_end`` [s] (checked: also what a sweep checks
+    of its points before the first runs)."""
+    t_end = check_range("time", t_end, t0 + MIN_SPAN, 1e6, lo_open=False)
+    save_every = positive("save_every", save_every if save_every is not None
+                          else (t_end - t0) / 200, t_end - t0)
+    if (t_end - t0) / save_every > MAX_RECORDS:
+        raise ParameterError("save_every", save_every, f"at least time/{MAX_RECORDS:.0e} = "
+                             f"{(t_end - t0) / MAX_RECORDS:g} s (at most {MAX_RECORDS:.0e} records)")
+    if checkpoint_every is not None:
+        checkpoint_every = positive("checkpoint_every", checkpoint_every, 1e6)
+    flush_every = max(1, int(round(checkpoint_every / save_every))) if checkpoint_every else 1000
+    return {"t0": t0, "t_end": t_end, "save_every": save_every, "flush_every": flush_every}
+
+
 def run_first_success(make, attempts, t_end: float, save_every: float):
     """Run ``make(method, frame)`` for each (method, frame) of ``attempts`` until one run to
     ``t_end`` succeeds (callers list CVODE in one or two frames, then the fixed-step solver:
@@ -557,5 +573,5 @@ def _progress(total: int, enabled: bool):
     return progress_bar(total=total, unit="save", desc="simulating", leave=False) if enabled else None
 
 
-__all__ = ["CHART_LIMIT", "MAX_RECORDS", "MAX_STRAIN", "Simulator", "SolverOptions", "State",
-           "run_first_success"]
+__all__ = ["CHART_LIMIT", "MAX_RECORDS", "MAX_STRAIN", "MIN_SPAN", "Simulator", "SolverOptions",
+           "State", "check_setup", "plan_run", "run_first_success"]

@@ -15,9 +15,10 @@ from ._output import emit_json, emit_table, fmt
 def bench(quick, window, as_json):
     """Speed benchmarks: wall seconds per simulated second, scaling with N, Brownian."""
     from ..bench import bench as run_bench
-    from ..params import positive
+    from ..params import check_range
 
-    out = run_bench(positive("window", window, 10.0), quick=quick)
+    # at least a few records of the shortest save interval (window/100) that a run resolves
+    out = run_bench(check_range("window", window, 1e-3, 10.0, lo_open=False), quick=quick)
     if as_json:
         emit_json(out)
     else:

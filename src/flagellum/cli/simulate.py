@@ -9,6 +9,7 @@ import click
 from ._options import (boundary_from_cli, boundary_options, hydro_from_cli, hydro_options,
                        motor_from_cli, motor_options, output_option, param_options,
                        params_from_cli, solver_from_cli, solver_options, time_option)
+from ..errors import ParameterError
 from ._output import emit_json, emit_table
 
 
@@ -40,6 +41,7 @@ def simulate(t_end, save_every, average_from, thermal, seed, output, checkpoint_
         check_range("average_from", average_from, 0.0, math.inf if resume_file else t_end,
                     lo_open=False)
     if resume_file is not None:
+        _check_alone(click.get_current_context())
         sim, traj = Simulator.resume(resume_file, progress=False if as_json else None)
         _report_run(sim, traj, average_from, resume_file, as_json)
         return
@@ -54,6 +56,21 @@ def simulate(t_end, save_every, average_from, thermal, seed, output, checkpoint_
                    output=output, progress=False if as_json else None,
                    checkpoint_every=checkpoint_every)
     _report_run(sim, traj, average_from, output, as_json)
+
+
+#: what a resumed run may be given besides --resume: its report (the run is the checkpoint's)
+_WITH_RESUME = {"resume_file", "as_json", "average_from"}
+
+
+def _check_alone(ctx: click.Context) -> None:
+    """Refuse flags that a resumed run would ignore: its physics, output and settings are
+    those stored in the file."""
+    given = [p for p in ctx.command.params if p.name not in _WITH_RESUME
+             and ctx.get_parameter_source(p.name) not in (click.core.ParameterSource.DEFAULT, None)]
+    if given:
+        raise ParameterError("resume", ", ".join(p.opts[0] for p in given),
+                             "given alone (the resumed run takes its parameters, output and "
+                             "settings from the file; only --json and --average-from combine)")
 
 
 def _report_run(sim, traj, average_from, output, as_json):

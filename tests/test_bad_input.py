@@ -133,3 +133,87 @@ def test_checkpoint_every_needs_an_output():
 
     with pytest.raises(ParameterError, match="checkpoint_every"):
         Simulator(Params.from_flat({"length": 2.0})).run(0.01, checkpoint_every=0.005)
+
+
+# -- nothing overwritten ------------------------------------------------------------------
+
+RUN = dict(t_end=0.02, save_every=1e-3, checkpoint_every=0.005, progress=False)
+
+
+def _sim():
+    from flagellum.simulator import Simulator
+
+    return Simulator(Params.from_flat({"length": 2.0}))
+
+
+def test_an_existing_output_is_kept_without_overwrite(cli, tmp_path):
+    out = tmp_path / "run.h5"
+    assert cli("simulate", *SHORT, "--output", out)[0] == 0
+    before = out.read_bytes()
+    code, _, err = cli("simulate", *SHORT, "--torque", "2", "--output", out)
+    assert_one_line_error(code, err, "overwrite")
+    assert out.read_bytes() == before
+    assert cli("simulate", *SHORT, "--torque", "2", "--output", out, "--overwrite")[0] == 0
+    assert out.read_bytes() != before
+    assert sorted(os.listdir(tmp_path)) == ["run.h5"]  # no lock, part or checkpoint left
+
+
+def test_a_second_writer_of_the_same_output_is_refused(tmp_path):
+    from flagellum.trajectory import RunFiles
+
+    out = tmp_path / "run.h5"
+    first = RunFiles.create(out, 10, {}, 10)  # a run in progress holds the lock
+    try:
+        with pytest.raises(ParameterError, match="no other run"):
+            _sim().run(output=out, overwrite=True, **RUN)
+        with pytest.raises(ParameterError, match="no other run"):
+            type(_sim()).resume(out)
+    finally:
+        first.release()
+    _sim().run(output=out, overwrite=True, **RUN)  # released: the next run may write
+    assert sorted(os.listdir(tmp_path)) == ["run.h5"]
+
+
+def test_a_killed_runs_lock_does_not_block_its_resume(tmp_path):
+    import signal
+
+    from flagellum.io import read_trajectory
+    from flagellum.trajectory import RunFiles
+
+    out = tmp_path / "run.h5"
+    pid = os.fork()
+    if pid == 0:  # child: killed right after its first checkpoint, holding the lock
+        try:
+            orig = RunFiles.write_checkpoint
+
+            def write_and_die(self, *a, **kw):
+                orig(self, *a, **kw)
+                os.kill(os.getpid(), signal.SIGKILL)
+
+            RunFiles.write_checkpoint = write_and_die
+            _sim().run(output=out, **RUN)
+        finally:
+            os._exit(0)
+    os.waitpid(pid, 0)
+    assert (tmp_path / "run.h5.lock").exists() and (tmp_path / "run.h5.ckpt").exists()
+    type(_sim()).resume(out, progress=False)
+    assert read_trajectory(out)["attrs"]["status"] == "complete"
+    assert sorted(os.listdir(tmp_path)) == ["run.h5"]
+
+
+def test_a_failed_probe_leaves_no_file(tmp_path, monkeypatch):
+    import errno
+    from pathlib import Path
+
+    from flagellum.io import check_writable
+
+    real = Path.write_bytes
+
+    def full(self, data):
+        real(self, b"")  # created, then the disk is full
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(Path, "write_bytes", full)
+    with pytest.raises(ParameterError, match="output"):
+        check_writable(tmp_path / "run.h5")
+    assert os.listdir(tmp_path) == []

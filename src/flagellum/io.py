@@ -52,6 +52,48 @@ def output_file(path, name: str = "output") -> Path:
     return Path(path)
 
 
+class OutputLock:
+    """An exclusive lock on ``<path>.lock`` (``flock``), held by one run of ``path`` (its main
+    file, parts and checkpoint) for its lifetime. The kernel drops the lock of a process that
+    dies, so a killed run's lock file blocks nobody; :meth:`release` removes the file."""
+
+    def __init__(self, path, name: str = "output"):
+        self.path = Path(path).with_name(Path(path).name + ".lock")
+        self.name, self._fd = name, None
+
+    def acquire(self) -> "OutputLock":
+        import fcntl
+
+        from .errors import ParameterError
+
+        while self._fd is None:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
+                os.close(fd)
+                raise ParameterError(self.name, str(self.path)[:-5], "a file that no other run is "
+                                     f"writing (process {holder} holds {self.path.name})") from None
+            try:
+                same = os.fstat(fd).st_ino == os.stat(self.path).st_ino
+            except FileNotFoundError:  # removed by the run that held it just now
+                same = False
+            if same:
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, str(os.getpid()).encode(), 0)
+                self._fd = fd
+            else:
+                os.close(fd)
+        return self
+
+    def release(self) -> None:
+        if self._fd is not None:
+            self.path.unlink(missing_ok=True)  # while still held: no one locks a removed file
+            os.close(self._fd)
+            self._fd = None
+
+
 @contextmanager
 def atomic_path(path: str | Path):
     """Yield a temporary path next to ``path``; on success fsync and rename it onto ``path``.

@@ -371,7 +371,8 @@ class Simulator:
 
     # -- running ----------------------------------------------------------------------
     def run(self, t_end: float, save_every: float | None = None, output: str | Path | None = None,
-            progress: bool | None = None, checkpoint_every: float | None = None) -> Trajectory:
+            progress: bool | None = None, checkpoint_every: float | None = None,
+            overwrite: bool = False) -> Trajectory:
         """Integrate from the current time to ``t_end`` [s], saving every ``save_every`` s.
 
         With ``output`` the records go, at each checkpoint (every ``checkpoint_every``
@@ -380,7 +381,8 @@ class Simulator:
         so memory stays bounded and a run killed at any instant can be continued with
         :meth:`resume`; at the end the parts are gathered into ``output`` (see
         :mod:`flagellum.trajectory`) and the returned :class:`Trajectory` holds the whole run
-        read back from it.
+        read back from it. An existing ``output`` is replaced only with ``overwrite``; a
+        second run into the same ``output`` is refused while this one runs.
         A blow-up raises :class:`SimulationError` after saving the last good state.
         """
         if checkpoint_every is not None and output is None:
@@ -389,7 +391,7 @@ class Simulator:
         files = None
         if output is not None:
             files = RunFiles.create(output, self.model.n, {**self.metadata(), "plan": json.dumps(plan)},
-                                    len(self._times(plan)) + 1)
+                                    len(self._times(plan)) + 1, overwrite=overwrite)
         return self._loop(plan, 0, files, progress)
 
     def _plan(self, t_end, save_every, checkpoint_every) -> dict:
@@ -406,6 +408,13 @@ class Simulator:
 
     def _loop(self, plan: dict, start: int, files: RunFiles | None, progress) -> Trajectory:
         """Records ``start`` … of ``plan``; into ``files`` (parts, checkpoints), else kept in memory."""
+        try:
+            return self._run_records(plan, start, files, progress)
+        finally:
+            if files is not None:
+                files.release()
+
+    def _run_records(self, plan: dict, start: int, files: RunFiles | None, progress) -> Trajectory:
         times = self._times(plan)
         flush_every = plan["flush_every"]
         progress = show_progress(progress)
@@ -496,12 +505,23 @@ class Simulator:
         """
         files = RunFiles(output, name="resume")
         attrs = files.attrs()
+        files.lock()
+        try:
+            return cls._resume(files, attrs, progress)
+        except BaseException:
+            files.release()
+            raise
+
+    @classmethod
+    def _resume(cls, files: RunFiles, attrs: dict, progress) -> tuple["Simulator", Trajectory]:
+        output = files.path
         try:
             if str(attrs.get("status", "")) == COMPLETE:  # killed after writing the file, before tidying up
                 files.tidy()
                 sim = cls.from_spec(json.loads(attrs["spec"]))
                 sim.wall_seconds = float(attrs.get("wall_seconds", 0.0))
                 sim.steps = int(attrs.get("steps", 0))
+                files.release()
                 return sim, files.read(sim.metadata())
             ckpt = files.read_checkpoint()
             if ckpt is not None:

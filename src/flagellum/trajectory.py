@@ -183,22 +183,44 @@ class RunFiles:
     def __init__(self, path: str | Path, n_parts: int = 0, name: str = "output"):
         self.path = io.output_file(path, name)  # ``name``: the parameter that gave the path
         self.n_parts = int(n_parts)
+        self._lock = io.OutputLock(self.path, name)
+
+    def lock(self) -> "RunFiles":
+        """Hold the run's lock (:class:`flagellum.io.OutputLock`): a second run into the same
+        files is refused until :meth:`release`."""
+        self._lock.acquire()
+        return self
+
+    def release(self) -> None:
+        self._lock.release()
 
     @property
     def checkpoint(self) -> Path:
         return checkpoint_path(self.path)
 
     @classmethod
-    def create(cls, path: str | Path, n_segments: int, attrs: dict, n_records: int) -> "RunFiles":
+    def create(cls, path: str | Path, n_segments: int, attrs: dict, n_records: int,
+               overwrite: bool = False) -> "RunFiles":
         """Check that the disk takes ``n_records`` records (twice: the parts and the final
-        file exist together for a moment), remove what an earlier run into ``path`` left
-        and create the (empty) main file with ``attrs``."""
+        file exist together for a moment), take the run's lock, remove what an earlier run
+        into ``path`` left (an existing ``path`` only with ``overwrite``) and create the
+        (empty) main file with ``attrs``; the lock is held until :meth:`release`."""
+        from .errors import ParameterError
+
         files = cls(path)
         io.check_writable(files.path, 2 * n_records * record_bytes(n_segments))
-        files.checkpoint.unlink(missing_ok=True)
-        io.drop_parts(files.path)
-        with writing(files.path):
-            io.create_trajectory(files.path, n_segments, {**attrs, "status": io.RUNNING})
+        files.lock()
+        try:
+            if not overwrite and files.path.exists():
+                raise ParameterError("output", str(files.path), "a new file (--overwrite replaces "
+                                     "it; --resume continues a stopped run)")
+            files.checkpoint.unlink(missing_ok=True)
+            io.drop_parts(files.path)
+            with writing(files.path):
+                io.create_trajectory(files.path, n_segments, {**attrs, "status": io.RUNNING})
+        except BaseException:
+            files.release()
+            raise
         return files
 
     def write_part(self, records: dict) -> None:

@@ -28,11 +28,12 @@ from ._output import emit_json, emit_table
 @output_option("output", "HDF5 trajectory file", default=None)
 @click.option("--checkpoint-every", type=float, default=None,
               help="write records and a checkpoint every T simulated seconds (with --output)")
+@click.option("--overwrite", is_flag=True, help="replace an existing --output file")
 @click.option("--resume", "resume_file", type=click.Path(dir_okay=False), default=None,
               help="continue the run in this HDF5 file from its last checkpoint")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object (no progress bar)")
-def simulate(t_end, save_every, average_from, thermal, seed, output, checkpoint_every, resume_file,
-             as_json, **kwargs):
+def simulate(t_end, save_every, average_from, thermal, seed, output, checkpoint_every, overwrite,
+             resume_file, as_json, **kwargs):
     """Simulate the motor-driven filament and report time-averaged observables."""
     from ..params import check_range
     from ..simulator import Simulator
@@ -54,7 +55,7 @@ def simulate(t_end, save_every, average_from, thermal, seed, output, checkpoint_
                     hydrodynamics=hydro_from_cli(kwargs))
     traj = sim.run(t_end, save_every=save_every if save_every is not None else t_end / 300,
                    output=output, progress=False if as_json else None,
-                   checkpoint_every=checkpoint_every)
+                   checkpoint_every=checkpoint_every, overwrite=overwrite)
     _report_run(sim, traj, average_from, output, as_json)
 
 

@@ -217,3 +217,74 @@ def test_a_failed_probe_leaves_no_file(tmp_path, monkeypatch):
     with pytest.raises(ParameterError, match="output"):
         check_writable(tmp_path / "run.h5")
     assert os.listdir(tmp_path) == []
+
+
+# -- damaged checkpoints ------------------------------------------------------------------
+
+def _killed_after_checkpoints(out, n):
+    """A run into ``out`` SIGKILLed right after its n-th checkpoint."""
+    import signal
+
+    from flagellum.trajectory import RunFiles
+
+    pid = os.fork()
+    if pid == 0:
+        try:
+            orig, calls = RunFiles.write_checkpoint, [0]
+
+            def write_and_maybe_die(self, *a, **kw):
+                orig(self, *a, **kw)
+                calls[0] += 1
+                if calls[0] == n:
+                    os.kill(os.getpid(), signal.SIGKILL)
+
+            RunFiles.write_checkpoint = write_and_maybe_die
+            _sim().run(output=out, **RUN)
+        finally:
+            os._exit(0)
+    os.waitpid(pid, 0)
+
+
+def _edit_checkpoint(ckpt, **attrs):
+    import h5py
+
+    with h5py.File(ckpt, "r+") as f:
+        for k, v in attrs.items():
+            f.attrs[k] = v(f.attrs[k]) if callable(v) else v
+
+
+def _edit_spec(spec):
+    import json
+
+    d = json.loads(spec)
+    d["motor"]["torque"] = 3.0
+    return json.dumps(d)
+
+
+@pytest.mark.parametrize("damage", ["parts deleted", "one part deleted", "one part changed",
+                                    "n_done altered", "spec edited"])
+def test_a_damaged_checkpoint_is_refused_not_resumed(damage, tmp_path):
+    import shutil
+
+    from flagellum.io import part_path, parts_dir, read_trajectory
+
+    out, ckpt = tmp_path / "run.h5", tmp_path / "run.h5.ckpt"
+    _killed_after_checkpoints(out, 3)
+    if damage == "parts deleted":
+        shutil.rmtree(parts_dir(out))
+    elif damage == "one part deleted":
+        part_path(out, 1).unlink()
+    elif damage == "one part changed":
+        import h5py
+
+        with h5py.File(part_path(out, 1), "r+") as f:
+            f["thrust"][0] += 1.0
+    elif damage == "n_done altered":
+        _edit_checkpoint(ckpt, n_done=lambda n: n + 3)
+    else:
+        _edit_checkpoint(ckpt, spec=_edit_spec)
+    with pytest.raises(ParameterError, match="resume") as err:
+        type(_sim()).resume(out, progress=False)
+    assert "\n" not in str(err.value)
+    assert read_trajectory(out)["attrs"]["status"] != "complete"
+    assert not (tmp_path / "run.h5.lock").exists()

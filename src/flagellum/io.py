@@ -306,14 +306,38 @@ def part_files(path) -> list[Path]:
     return sorted(parts, key=lambda p: int(p.stem))
 
 
+def part_path(path, index: int) -> Path:
+    """Part file ``index`` of ``path``."""
+    return parts_dir(path) / f"{index:08d}.h5"
+
+
+def part_last_time(part) -> float:
+    """The time of a part file's last record [s]."""
+    import h5py
+
+    with h5py.File(part, "r") as f:
+        return float(f["t"][-1])
+
+
 def write_part(path, index: int, records: dict) -> None:
     """Write one interval's records (dict of equally long lists) as part ``index`` of ``path``."""
     import h5py
 
-    with atomic_path(parts_dir(path) / f"{index:08d}.h5") as tmp:
+    with atomic_path(part_path(path, index)) as tmp:
         with h5py.File(tmp, "w") as f:
             for name in RECORD_FIELDS:
                 f[name] = np.asarray(records[name], float)
+
+
+def file_digest(path) -> str:
+    """SHA-256 of a file's bytes (hex)."""
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 def drop_parts(path, keep: int = 0) -> None:

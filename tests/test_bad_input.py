@@ -221,8 +221,9 @@ def test_a_failed_probe_leaves_no_file(tmp_path, monkeypatch):
 
 # -- damaged checkpoints ------------------------------------------------------------------
 
-def _killed_after_checkpoints(out, n):
-    """A run into ``out`` SIGKILLed right after its n-th checkpoint."""
+def _killed_after_checkpoints(out, n, make=None):
+    """A run (of the simulator ``make()``, default ``_sim()``) into ``out`` SIGKILLed right
+    after its n-th checkpoint."""
     import signal
 
     from flagellum.trajectory import RunFiles
@@ -239,7 +240,7 @@ def _killed_after_checkpoints(out, n):
                     os.kill(os.getpid(), signal.SIGKILL)
 
             RunFiles.write_checkpoint = write_and_maybe_die
-            _sim().run(output=out, **RUN)
+            (make or _sim)().run(output=out, **RUN)
         finally:
             os._exit(0)
     os.waitpid(pid, 0)
@@ -288,3 +289,40 @@ def test_a_damaged_checkpoint_is_refused_not_resumed(damage, tmp_path):
     assert "\n" not in str(err.value)
     assert read_trajectory(out)["attrs"]["status"] != "complete"
     assert not (tmp_path / "run.h5.lock").exists()
+
+
+# -- thermal resume ------------------------------------------------------------------------
+
+def test_thermal_kill_and_resume_with_step_splits_is_bit_identical(tmp_path, monkeypatch):
+    """A resumed thermal run draws the noise of its split steps (Brownian bridge) as the
+    uninterrupted run did, and counts all steps."""
+    import numpy as np
+
+    from flagellum.integrate.brownian import ImplicitStepper
+    from flagellum.io import RECORD_FIELDS, read_trajectory
+    from flagellum.simulator import Simulator
+
+    splits = []
+    orig = ImplicitStepper._steps
+
+    def failing(self, t0, k, dt, times, normals):  # a full step at every 37th step time fails
+        if dt > 0.75 * self.dt and round(t0 / self.dt) % 37 == 5:
+            splits.append(t0)
+            return 0
+        return orig(self, t0, k, dt, times, normals)
+
+    monkeypatch.setattr(ImplicitStepper, "_steps", failing)
+
+    def sim():
+        return Simulator(Params.from_flat({"length": 2.0, "kT": 4.1e-3}), thermal=True, seed=3)
+
+    ref = tmp_path / "ref.h5"
+    sim().run(output=ref, **RUN)
+    assert splits
+    out = tmp_path / "run.h5"
+    _killed_after_checkpoints(out, 2, sim)
+    resumed, _ = Simulator.resume(out, progress=False)
+    a, b = read_trajectory(ref), read_trajectory(out)
+    for name in [*RECORD_FIELDS, "final_state"]:
+        assert np.array_equal(a[name], b[name]), name
+    assert a["attrs"]["steps"] == b["attrs"]["steps"] == resumed.steps

@@ -444,7 +444,7 @@ class Simulator:
                 if (i + 1) % flush_every == 0 and i + 1 < len(times):
                     self._flush(buf, kept, files, stepper)
                     if files is not None:
-                        self._checkpoint(files, plan, i + 1, wall0)
+                        self._checkpoint(files, plan, i + 1, wall0, self.steps + stepper.n_steps)
                     changed = True  # restart the integrator at checkpoints (resume = identical)
                 if changed:
                     self.model.refresh_mobility(self.y, force=True)
@@ -484,7 +484,7 @@ class Simulator:
         self._rng_state = stepper.rng_state
 
     # -- checkpoints ------------------------------------------------------------------
-    def _checkpoint(self, files: RunFiles, plan: dict, n_done: int, wall0: float) -> None:
+    def _checkpoint(self, files: RunFiles, plan: dict, n_done: int, wall0: float, steps: int) -> None:
         ref_u, ref_e, ref_m = self.model.charts()
         files.write_checkpoint(
             {"y": self.y, "ref_u": ref_u, "ref_e": ref_e, "ref_m": ref_m},
@@ -492,7 +492,7 @@ class Simulator:
              "n_done": n_done, "n_records": n_done + 1,  # + the initial record
              "plan": json.dumps(plan), "rng_state": json.dumps(self._rng_state),
              "last_motor": json.dumps(self._last_motor),
-             "wall_seconds": self.wall_seconds + time.perf_counter() - wall0,
+             "wall_seconds": self.wall_seconds + time.perf_counter() - wall0, "steps": steps,
              "spec": json.dumps(self.spec())})
 
     @classmethod
@@ -552,6 +552,7 @@ class Simulator:
         sim._rng_state = json.loads(a["rng_state"])
         sim._last_motor = tuple(json.loads(a["last_motor"]))
         sim.wall_seconds = float(a["wall_seconds"])
+        sim.steps = int(a.get("steps", 0))  # the steps before the checkpoint count too
         return sim, json.loads(a["plan"]), int(a["n_done"])
 
 

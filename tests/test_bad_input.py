@@ -40,12 +40,22 @@ def test_huge_integers_are_parameter_errors(tmp_path):
     (["theory", "buckling", "--f-par", "1e30"], "f_par"),
     (["theory", "manifold", "--tau0", "0", "-o", "{tmp}/m"], "tau0"),
     (["theory", "effective-rigidity", "--tau0", "0"], "tau0"),
+    (["theory", "manifold", "--gamma-par", "1e6", "--m-steps", "5", "--f-par-steps", "2",
+      "--inv-a-steps", "2", "--workers", "1", "-o", "{tmp}/m"], "manifold"),
     (["info", "/dev/zero"], "file"),
 ])
 def test_one_line_error_instead_of_a_traceback(args, name, cli, tmp_path):
     (tmp_path / "big.toml").write_text("[filament]\nlength = " + "1" * 400 + "\n")
     code, _, err = cli(*(a.replace("{tmp}", str(tmp_path)) for a in args))
     assert_one_line_error(code, err, name)
+
+
+def test_a_parameter_error_of_a_worker_process_reaches_the_parent():
+    """Pickled back from a worker, it stays itself (else the pool breaks with a traceback)."""
+    import pickle
+
+    err = pickle.loads(pickle.dumps(ParameterError("seed", -1, "an integer ≥ 0")))
+    assert isinstance(err, ParameterError) and err.name == "seed" and "seed" in str(err)
 
 
 @pytest.mark.parametrize("command", [["simulate", "--config"], ["info"]])

@@ -54,10 +54,10 @@ import scipy.linalg
 from scipy.optimize import brentq
 
 from ..errors import FlagellumError, ParameterError
-from ..params import check_choice, check_range, check_real
+from ..params import check_choice, check_real
 
 NAMES = ("m_hat", "f_par", "f_perp", "chi")
-LOAD_LIMIT = 1e6  #: largest |value| of a dimensionless load (hat)
+LOAD_LIMIT = 1e6  #: largest |value| of a given dimensionless load: beyond, the shooting matrices overflow
 BASES = ("hinged", "clamped")
 TOPS = ("free", "hinged", "clamped")
 PROFILES = ("linear", "uniform")
@@ -94,9 +94,8 @@ class BucklingProblem:
     torque_profile: str = "linear"
 
     def __post_init__(self):
-        for name in NAMES:  # beyond LOAD_LIMIT the shooting matrices overflow
-            object.__setattr__(self, name, check_range(name, getattr(self, name), -LOAD_LIMIT,
-                                                       LOAD_LIMIT, lo_open=False))
+        for name in NAMES:
+            object.__setattr__(self, name, check_real(name, getattr(self, name)))
         check_choice("base", self.base, BASES)
         check_choice("top", self.top, TOPS)
         check_choice("force_profile", self.force_profile, PROFILES)

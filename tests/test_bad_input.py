@@ -58,6 +58,13 @@ def test_a_parameter_error_of_a_worker_process_reaches_the_parent():
     assert isinstance(err, ParameterError) and err.name == "seed" and "seed" in str(err)
 
 
+@pytest.mark.parametrize("command", [["simulate"], ["sweep", "--torque", "1:2"], ["demo"],
+                                     ["bifurcations"], ["reproduce", "fig3"],
+                                     ["theory", "manifold"]])
+def test_an_empty_output_name_is_refused_by_every_command(command, cli):
+    assert_one_line_error(*cli(*command, "--output", "")[::2], "output")
+
+
 @pytest.mark.parametrize("command", [["simulate", "--config"], ["info"]])
 def test_a_fifo_is_refused_before_reading(command, cli, tmp_path):
     fifo = tmp_path / "fifo"

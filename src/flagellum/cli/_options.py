@@ -72,8 +72,14 @@ def output_option(dest: str, help: str, *, directory: bool = False, **kwargs):
     """``--output``/``-o``: where a command writes (a file, or with ``directory`` a folder);
     ``--out`` still parses."""
     kind = click.Path(file_okay=False) if directory else click.Path(dir_okay=False)
+
+    def named(ctx, param, value):  # click.Path takes '' (the current directory)
+        if value is not None and not str(value).strip():
+            raise ParameterError("output", value, "a folder name" if directory else "a file name")
+        return value
+
     return click.option("--output", "-o", dest, cls=AliasedOption, aliases=("--out",), type=kind,
-                        help=help, **kwargs)
+                        help=help, callback=named, **kwargs)
 
 
 def time_option(dest: str = "t_end", **kwargs):

@@ -343,3 +343,29 @@ def test_thermal_kill_and_resume_with_step_splits_is_bit_identical(tmp_path, mon
     for name in [*RECORD_FIELDS, "final_state"]:
         assert np.array_equal(a[name], b[name]), name
     assert a["attrs"]["steps"] == b["attrs"]["steps"] == resumed.steps
+
+
+def test_warnings_before_an_error_leave_one_line(cli, monkeypatch):
+    import warnings
+
+    import flagellum.cli.simulate as command
+
+    def warn_then_fail(kwargs):
+        warnings.warn("overflow encountered in multiply", RuntimeWarning)
+        raise ParameterError("length", -1.0, "> 0")
+
+    monkeypatch.setattr(command, "params_from_cli", warn_then_fail)
+    assert_one_line_error(*cli("simulate")[::2], "length")
+
+
+def test_warnings_of_a_successful_command_are_still_shown(cli, monkeypatch):
+    import warnings
+
+    def warn_and_read(path, **kw):
+        warnings.warn("something to know", UserWarning)
+        return {"attrs": {"status": "complete"}}
+
+    monkeypatch.setattr("flagellum.io.read_trajectory", warn_and_read)
+    with pytest.warns(UserWarning, match="something to know"):
+        code, out, _ = cli("info", "any.h5")
+    assert code == 0 and "complete" in out

@@ -8,6 +8,7 @@ import pytest
 from conftest import assert_one_line_error, run_cli_subprocess
 
 from flagellum.cli import run
+from flagellum.errors import ParameterError
 
 
 def test_version():
@@ -214,12 +215,17 @@ def test_hydrodynamics_flag_reaches_the_model(command, first_hydrodynamics, tmp_
 
 
 def test_boundary_from_flags_keeps_given_kinds():
-    """Explicit kinds stay (a sweep over hooks at one k keeps its free and clamped points)."""
+    """Explicit kinds stay; a value the given kind would not use is refused, not dropped."""
     from flagellum.motor import Boundary
 
     assert Boundary.from_flags(hook_stiffness=0.5) == Boundary(hook="elastic", hook_stiffness=0.5)
-    assert Boundary.from_flags(hook="free", hook_stiffness=0.5) == Boundary()
-    assert Boundary.from_flags(hook="clamped", hook_stiffness=0.5) == Boundary(hook="clamped")
+    assert Boundary.from_flags(hook="free", hook_stiffness=0.0) == Boundary()
+    assert Boundary.from_flags(hook="clamped") == Boundary(hook="clamped")
+    for hook in ("free", "clamped"):
+        with pytest.raises(ParameterError, match="hook_stiffness"):
+            Boundary.from_flags(hook=hook, hook_stiffness=0.5)
+    with pytest.raises(ParameterError, match="sphere_radius"):
+        Boundary.from_flags(anchor="fixed", sphere_radius=1.0)
     assert Boundary.from_flags(sphere_radius=1.0) == Boundary(anchor="sphere", sphere_radius=1.0)
     assert Boundary.from_flags(anchor="free") == Boundary(anchor="free", sphere_radius=0.0)
 

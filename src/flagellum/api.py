@@ -25,7 +25,7 @@ def simulate(torque: float = 1.0, time: float = 0.3, *, save_every: float | None
              method: str | None = None, rtol: float = 1e-6, dt: float = 5e-5,
              scheme: str | None = None, theta: float | None = None, frame: str | float = "auto",
              output: str | Path | None = None, checkpoint_every: float | None = None,
-             progress: bool | None = None, params: Params | dict | None = None,
+             overwrite: bool = False, progress: bool | None = None, params: Params | dict | None = None,
              **overrides) -> Trajectory:
     """Simulate the motor-driven filament from the stress-free helix (paper Sec. 2) and
     return its :class:`~flagellum.trajectory.Trajectory` (lab frame).
@@ -67,6 +67,7 @@ def simulate(torque: float = 1.0, time: float = 0.3, *, save_every: float | None
         resumable with :meth:`~flagellum.simulator.Simulator.resume`); default: memory only.
     checkpoint_every : with ``output``, write the records and a checkpoint every this many
         simulated seconds (default: every 1000 records).
+    overwrite : replace an existing ``output`` (otherwise an error).
     progress : show a progress bar (a widget in Jupyter); default: when someone watches (a
         terminal or a notebook).
     params : the filament and fluid (:class:`~flagellum.params.Params`, or a dict of flat
@@ -92,7 +93,8 @@ def simulate(torque: float = 1.0, time: float = 0.3, *, save_every: float | None
                     seed=seed, solver=solver)
     time = positive("time", time, 1e6)
     return sim.run(time, save_every=save_every if save_every is not None else time / 300,
-                   output=output, progress=progress, checkpoint_every=checkpoint_every)
+                   output=output, progress=progress, checkpoint_every=checkpoint_every,
+                   overwrite=overwrite)
 
 
 __all__ = ["simulate"]

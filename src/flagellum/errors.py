@@ -16,6 +16,9 @@ class ParameterError(FlagellumError, ValueError):
         self.name, self.value, self.allowed = name, value, allowed
         super().__init__(f"invalid {name} = {value!r}: must be {allowed}")
 
+    def __reduce__(self):  # raised in a worker process: pickled back to the parent
+        return type(self), (self.name, self.value, self.allowed)
+
 
 class SimulationError(FlagellumError, RuntimeError):
     """A run that could not continue (blow-up, step failure); the last good state is kept."""

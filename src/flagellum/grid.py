@@ -70,7 +70,7 @@ def convert(name: str, value: Any):
         if not math.isfinite(v):
             raise ValueError
         return v
-    except (ValueError, TypeError, InvalidOperation):
+    except (ValueError, TypeError, OverflowError, InvalidOperation):
         kind = {float: "a finite number", int: "an integer", str: "a non-empty string",
                 bool: "true or false"}[typ]
         raise ParameterError(name, value, kind) from None

@@ -6,6 +6,7 @@ from __future__ import annotations
 import glob
 import os
 import shutil
+import stat
 import tempfile
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
@@ -13,13 +14,94 @@ from pathlib import Path
 import numpy as np
 
 
+MAX_CONFIG_BYTES = 1 << 20  #: largest TOML file read (a parameter file is a few hundred bytes)
+
+
+def input_file(path, name: str = "file", max_bytes: int | None = None) -> Path:
+    """``path`` checked, before anything reads it, to be an existing regular file (a FIFO or
+    a device would block or never end the read) of at most ``max_bytes``."""
+    from .errors import ParameterError
+
+    if not str(path).strip():
+        raise ParameterError(name, str(path), "a file name")
+    try:
+        st = os.stat(path)
+    except OSError as exc:
+        raise ParameterError(name, str(path), f"an existing file ({exc.strerror})") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise ParameterError(name, str(path), "a regular file (not a directory, FIFO or device)")
+    if max_bytes is not None and st.st_size > max_bytes:
+        raise ParameterError(name, str(path), f"a file of at most {max_bytes} bytes")
+    return Path(path)
+
+
+def output_file(path, name: str = "output") -> Path:
+    """``path`` checked as a file to (re)place: a name, and a regular file where something
+    is there already (a rename would replace a symlink, directory entry or device)."""
+    from .errors import ParameterError
+
+    if not str(path).strip():
+        raise ParameterError(name, str(path), "a file name")
+    try:
+        st = os.lstat(path)
+    except OSError:  # nothing there (or unreachable: the write reports it)
+        return Path(path)
+    if not stat.S_ISREG(st.st_mode):
+        raise ParameterError(name, str(path), "a regular file or a new name (not a symlink, "
+                                              "directory or device)")
+    return Path(path)
+
+
+class OutputLock:
+    """An exclusive lock on ``<path>.lock`` (``flock``), held by one run of ``path`` (its main
+    file, parts and checkpoint) for its lifetime. The kernel drops the lock of a process that
+    dies, so a killed run's lock file blocks nobody; :meth:`release` removes the file."""
+
+    def __init__(self, path, name: str = "output"):
+        self.path = Path(path).with_name(Path(path).name + ".lock")
+        self.name, self._fd = name, None
+
+    def acquire(self) -> "OutputLock":
+        import fcntl
+
+        from .errors import ParameterError
+
+        while self._fd is None:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
+                os.close(fd)
+                raise ParameterError(self.name, str(self.path)[:-5], "a file that no other run is "
+                                     f"writing (process {holder} holds {self.path.name})") from None
+            try:
+                same = os.fstat(fd).st_ino == os.stat(self.path).st_ino
+            except FileNotFoundError:  # removed by the run that held it just now
+                same = False
+            if same:
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, str(os.getpid()).encode(), 0)
+                self._fd = fd
+            else:
+                os.close(fd)
+        return self
+
+    def release(self) -> None:
+        if self._fd is not None:
+            self.path.unlink(missing_ok=True)  # while still held: no one locks a removed file
+            os.close(self._fd)
+            self._fd = None
+
+
 @contextmanager
 def atomic_path(path: str | Path):
     """Yield a temporary path next to ``path``; on success fsync and rename it onto ``path``.
 
-    On an exception the temporary file is removed and ``path`` is left untouched.
+    On an exception the temporary file is removed and ``path`` is left untouched. ``path``
+    must be a regular file or a new name (:func:`output_file`).
     """
-    path = Path(path)
+    path = output_file(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{path.suffix}", dir=path.parent)
     os.close(fd)
@@ -224,14 +306,38 @@ def part_files(path) -> list[Path]:
     return sorted(parts, key=lambda p: int(p.stem))
 
 
+def part_path(path, index: int) -> Path:
+    """Part file ``index`` of ``path``."""
+    return parts_dir(path) / f"{index:08d}.h5"
+
+
+def part_last_time(part) -> float:
+    """The time of a part file's last record [s]."""
+    import h5py
+
+    with h5py.File(part, "r") as f:
+        return float(f["t"][-1])
+
+
 def write_part(path, index: int, records: dict) -> None:
     """Write one interval's records (dict of equally long lists) as part ``index`` of ``path``."""
     import h5py
 
-    with atomic_path(parts_dir(path) / f"{index:08d}.h5") as tmp:
+    with atomic_path(part_path(path, index)) as tmp:
         with h5py.File(tmp, "w") as f:
             for name in RECORD_FIELDS:
                 f[name] = np.asarray(records[name], float)
+
+
+def file_digest(path) -> str:
+    """SHA-256 of a file's bytes (hex)."""
+    import hashlib
+
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 def drop_parts(path, keep: int = 0) -> None:
@@ -295,9 +401,11 @@ def read_trajectory(path, records: bool = True) -> dict:
 
     from .errors import ParameterError
 
-    def bad(why):
-        return ParameterError("file", str(path), f"a readable flagellum HDF5 file ({why})")
+    def bad(why):  # HDF5's messages span lines
+        return ParameterError("file", str(path), "a readable flagellum HDF5 file "
+                              f"({' '.join(str(why).split())})")
 
+    input_file(path)
     try:
         with h5py.File(path, "r") as f, ExitStack() as stack:
             out = {"attrs": {k: v for k, v in f.attrs.items() if k not in CONVENTIONS}}
@@ -324,15 +432,17 @@ def check_writable(path: Path, nbytes: int = 0) -> None:
     """Fail before a run if ``path`` cannot be written or its disk lacks ``nbytes``."""
     from .errors import ParameterError
 
-    path = Path(path)
+    path = output_file(path)
     d = path.parent if str(path.parent) else Path(".")
     if d.exists() and not d.is_dir():
         raise ParameterError("output", str(path), "a path in a writable directory")
+    probe = d / f".{path.name}.probe"
     try:
         d.mkdir(parents=True, exist_ok=True)
-        probe = d / f".{path.name}.probe"
-        probe.write_bytes(b"0")
-        probe.unlink()
+        try:
+            probe.write_bytes(b"0")
+        finally:  # also when the write fails (a full disk): leave nothing behind
+            probe.unlink(missing_ok=True)
     except OSError as exc:
         raise ParameterError("output", str(path), f"a path in a writable directory ({exc.strerror})")
     free = shutil.disk_usage(d).free

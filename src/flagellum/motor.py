@@ -70,6 +70,9 @@ class Boundary:
     def __post_init__(self):
         check_choice("anchor", self.anchor, ("fixed", "sphere", "free"))
         check_choice("hook", self.hook, ("free", "elastic", "clamped"))
+        if self.anchor == "fixed" and self.sphere_radius is not None:  # never silently unused
+            raise ParameterError("sphere_radius", self.sphere_radius,
+                                 "given only with anchor = 'sphere' or 'free' (anchor is 'fixed')")
         if self.anchor == "sphere":
             if self.sphere_radius is None:
                 raise ParameterError("sphere_radius", None, "given (a number > 0) with anchor = 'sphere'")
@@ -87,8 +90,13 @@ class Boundary:
                    hook: str | None = None, hook_stiffness: float | None = None) -> "Boundary":
         """The boundary of the command-line flags and sweep values: an anchor not given is a
         load sphere when ``sphere_radius`` is given (else fixed); a hook not given is elastic
-        when ``hook_stiffness`` k > 0 (else free). Given values are kept as they are."""
+        when ``hook_stiffness`` k > 0 (else free). Given values are kept as they are, and a
+        value that the given kind would not use (a radius with a fixed anchor, k > 0 with a
+        free or clamped hook) is a :class:`ParameterError`."""
         k = 0.0 if hook_stiffness is None else hook_stiffness
+        if hook not in (None, "elastic") and k != 0:  # a flag never silently unused
+            raise ParameterError("hook_stiffness", k, f"given only with hook = 'elastic' "
+                                                      f"(hook is {hook!r})")
         if anchor is None:
             anchor = "fixed" if sphere_radius is None else "sphere"
         if hook is None:

@@ -29,13 +29,23 @@ from .paper import NORMAL_HELIX, PAPER
 
 #: The paper's rounded friction coefficients (Sec. 2.4): γ∥, γ⊥ in pN·s/µm², γR in pN·s.
 PAPER_FRICTION = tuple(PAPER[k].value for k in ("gamma_par", "gamma_perp", "gamma_rot"))
+#: The physical range of each friction coefficient (given or from Lighthill's formulas):
+#: far below the paper's values the relaxation times of the bond-scale modes shrink with the
+#: friction, and the stiff integrator's steps with them, until a run makes no progress.
+FRICTION_RANGE = {"gamma_par": (1e-6, 1e6), "gamma_perp": (1e-6, 1e6), "gamma_rot": (1e-10, 1e6)}
+#: Most segments of a filament: the CVODE linear solver holds a dense (4N+7)² Jacobian
+#: (0.5 GB at this size).
+MAX_SEGMENTS = 2000
 
 
 def check_real(name: str, value: Any, allowed: str = "a finite number") -> float:
     """Return ``value`` as float, or raise :class:`ParameterError` if it is not a finite real."""
     if isinstance(value, bool) or not isinstance(value, Real):
         raise ParameterError(name, value, allowed)
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:  # an integer beyond the float range (e.g. a TOML integer of 400 digits)
+        raise ParameterError(name, f"an integer of {len(str(abs(value)))} digits", allowed) from None
     if not math.isfinite(value):
         raise ParameterError(name, value, allowed)
     return value
@@ -101,9 +111,10 @@ class Filament:
         _set(self, "length", positive("length", self.length, 1e4))
         h = positive("segment_length", self.segment_length, self.length / 3)
         n = self.length / h
-        if not n <= 100000:
+        if not n <= MAX_SEGMENTS:
             raise ParameterError("segment_length", self.segment_length,
-                                 f"at least length/100000 = {self.length / 1e5:g}")
+                                 f"at least length/{MAX_SEGMENTS} = {self.length / MAX_SEGMENTS:g} "
+                                 f"(at most {MAX_SEGMENTS} segments)")
         if abs(n - round(n)) > 1e-6 * n or round(n) < 3:
             raise ParameterError("segment_length", self.segment_length,
                                  f"a divisor of length={self.length:g} giving at least 3 segments")
@@ -168,7 +179,8 @@ class Friction:
         for name in ("gamma_par", "gamma_perp", "gamma_rot"):
             v = getattr(self, name)
             if v is not None:
-                _set(self, name, positive(name, v, 1e6))
+                lo, hi = FRICTION_RANGE[name]
+                _set(self, name, check_range(name, v, lo, hi, lo_open=False))
             elif self.model == "custom":
                 raise ParameterError(name, v, "given (a number > 0) when friction = 'custom'")
 
@@ -181,7 +193,12 @@ class Friction:
         else:
             base = (self.gamma_par, self.gamma_perp, self.gamma_rot)
         given = (self.gamma_par, self.gamma_perp, self.gamma_rot)
-        return tuple(float(g if g is not None else b) for g, b in zip(given, base))
+        out = tuple(float(g if g is not None else b) for g, b in zip(given, base))
+        for (name, (lo, hi)), g in zip(FRICTION_RANGE.items(), out):
+            if not lo <= g <= hi:
+                raise ParameterError(name, g, f"in [{lo:g}, {hi:g}] (friction = '{self.model}': "
+                                     "viscosity and filament radius set it)")
+        return out
 
 
 def lighthill_friction(filament: Filament, fluid: Fluid) -> tuple[float, float, float]:
@@ -292,6 +309,9 @@ class Params:
 
 def read_toml(path: str | Path) -> dict:
     """Read a TOML file, turning every failure into a one-line :class:`ParameterError`."""
+    from .io import MAX_CONFIG_BYTES, input_file
+
+    input_file(path, "config", MAX_CONFIG_BYTES)
     try:
         text = Path(path).read_text()
     except (OSError, UnicodeDecodeError) as exc:
@@ -302,5 +322,5 @@ def read_toml(path: str | Path) -> dict:
         raise ParameterError("config", str(path), f"valid TOML ({exc})")
 
 
-__all__ = ["Filament", "Fluid", "Friction", "Params", "PAPER_FRICTION", "lighthill_friction",
+__all__ = ["FRICTION_RANGE", "MAX_SEGMENTS", "Filament", "Fluid", "Friction", "Params", "PAPER_FRICTION", "lighthill_friction",
            "check_real", "check_range", "check_choice", "positive", "read_toml"]

@@ -44,6 +44,7 @@ from .trajectory import COMPLETE, OutputError, RunFiles, Trajectory
 
 MAX_STRAIN = 0.5  #: a bond stretched or compressed by more than this is a blow-up
 MAX_RECORDS = 10**6  #: records per run (memory of the returned trajectory)
+MIN_SPAN = 1e-9  #: shortest run [s]: CVODE cannot step across a span at the rounding of t
 CHART_LIMIT = -0.8  #: re-centre a chart (and restart the integrator) when t·u falls below this
 
 
@@ -114,6 +115,22 @@ class State:
     frame_angle: float = 0.0
 
 
+def check_setup(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynamics,
+                thermal: bool, seed) -> None:
+    """The checks of a :class:`Simulator`'s arguments that the dataclasses cannot make alone
+    (also what a sweep checks of its points before the first runs)."""
+    if thermal and params.fluid.kT <= 0:
+        raise ParameterError("kT", params.fluid.kT, "> 0 for a thermal run")
+    if thermal and not hydrodynamics.is_local:
+        raise ParameterError("hydrodynamics", hydrodynamics.model, "'rft' for a thermal "
+                             "run (noise of the nonlocal mobility is not implemented)")
+    if thermal and solver.method != "implicit":
+        raise ParameterError("method", solver.method, "'implicit' for a thermal run")
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
+                             or not 0 <= seed < 2**63):  # an int64 attribute of the files
+        raise ParameterError("seed", seed, "an integer in [0, 2**63 - 1]")
+
+
 def _rotate_z(v: np.ndarray, angle: float) -> np.ndarray:
     c, s = math.cos(angle), math.sin(angle)
     out = np.array(v, float, copy=True)
@@ -154,15 +171,7 @@ class Simulator:
         self.boundary = boundary or Boundary()
         self.solver = solver or SolverOptions(method="implicit" if thermal else "cvode")
         self.thermal = bool(thermal)
-        if self.thermal and self.params.fluid.kT <= 0:
-            raise ParameterError("kT", self.params.fluid.kT, "> 0 for a thermal run")
-        if self.thermal and not self.hydrodynamics.is_local:
-            raise ParameterError("hydrodynamics", self.hydrodynamics.model, "'rft' for a thermal "
-                                 "run (noise of the nonlocal mobility is not implemented)")
-        if self.thermal and self.solver.method != "implicit":
-            raise ParameterError("method", self.solver.method, "'implicit' for a thermal run")
-        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0):
-            raise ParameterError("seed", seed, "a non-negative integer")
+        check_setup(self.params, self.solver, self.hydrodynamics, self.thermal, seed)
         self.seed = int(seed) if seed is not None else 0
         f = self.solver.frame
         self._omega_scale = pinned_omega_per_torque(self.params) * max(
@@ -369,7 +378,8 @@ class Simulator:
 
     # -- running ----------------------------------------------------------------------
     def run(self, t_end: float, save_every: float | None = None, output: str | Path | None = None,
-            progress: bool | None = None, checkpoint_every: float | None = None) -> Trajectory:
+            progress: bool | None = None, checkpoint_every: float | None = None,
+            overwrite: bool = False) -> Trajectory:
         """Integrate from the current time to ``t_end`` [s], saving every ``save_every`` s.
 
         With ``output`` the records go, at each checkpoint (every ``checkpoint_every``
@@ -378,27 +388,21 @@ class Simulator:
         so memory stays bounded and a run killed at any instant can be continued with
         :meth:`resume`; at the end the parts are gathered into ``output`` (see
         :mod:`flagellum.trajectory`) and the returned :class:`Trajectory` holds the whole run
-        read back from it.
+        read back from it. An existing ``output`` is replaced only with ``overwrite``; a
+        second run into the same ``output`` is refused while this one runs.
         A blow-up raises :class:`SimulationError` after saving the last good state.
         """
+        if checkpoint_every is not None and output is None:
+            raise ParameterError("checkpoint_every", checkpoint_every, "given only with an output file")
         plan = self._plan(t_end, save_every, checkpoint_every)
         files = None
         if output is not None:
             files = RunFiles.create(output, self.model.n, {**self.metadata(), "plan": json.dumps(plan)},
-                                    len(self._times(plan)) + 1)
+                                    len(self._times(plan)) + 1, overwrite=overwrite)
         return self._loop(plan, 0, files, progress)
 
     def _plan(self, t_end, save_every, checkpoint_every) -> dict:
-        t_end = check_range("time", t_end, self.t, 1e6)
-        save_every = positive("save_every", save_every if save_every is not None
-                              else (t_end - self.t) / 200, t_end - self.t)
-        if (t_end - self.t) / save_every > MAX_RECORDS:
-            raise ParameterError("save_every", save_every, f"at least time/{MAX_RECORDS:.0e} = "
-                                 f"{(t_end - self.t) / MAX_RECORDS:g} s (at most {MAX_RECORDS:.0e} records)")
-        if checkpoint_every is not None:
-            checkpoint_every = positive("checkpoint_every", checkpoint_every, 1e6)
-        flush_every = max(1, int(round(checkpoint_every / save_every))) if checkpoint_every else 1000
-        return {"t0": self.t, "t_end": t_end, "save_every": save_every, "flush_every": flush_every}
+        return plan_run(self.t, t_end, save_every, checkpoint_every)
 
     @staticmethod
     def _times(plan) -> np.ndarray:
@@ -411,6 +415,13 @@ class Simulator:
 
     def _loop(self, plan: dict, start: int, files: RunFiles | None, progress) -> Trajectory:
         """Records ``start`` … of ``plan``; into ``files`` (parts, checkpoints), else kept in memory."""
+        try:
+            return self._run_records(plan, start, files, progress)
+        finally:
+            if files is not None:
+                files.release()
+
+    def _run_records(self, plan: dict, start: int, files: RunFiles | None, progress) -> Trajectory:
         times = self._times(plan)
         flush_every = plan["flush_every"]
         progress = show_progress(progress)
@@ -440,7 +451,7 @@ class Simulator:
                 if (i + 1) % flush_every == 0 and i + 1 < len(times):
                     self._flush(buf, kept, files, stepper)
                     if files is not None:
-                        self._checkpoint(files, plan, i + 1, wall0)
+                        self._checkpoint(files, plan, i + 1, wall0, self.steps + stepper.n_steps)
                     changed = True  # restart the integrator at checkpoints (resume = identical)
                 if changed:
                     self.model.refresh_mobility(self.y, force=True)
@@ -480,7 +491,7 @@ class Simulator:
         self._rng_state = stepper.rng_state
 
     # -- checkpoints ------------------------------------------------------------------
-    def _checkpoint(self, files: RunFiles, plan: dict, n_done: int, wall0: float) -> None:
+    def _checkpoint(self, files: RunFiles, plan: dict, n_done: int, wall0: float, steps: int) -> None:
         ref_u, ref_e, ref_m = self.model.charts()
         files.write_checkpoint(
             {"y": self.y, "ref_u": ref_u, "ref_e": ref_e, "ref_m": ref_m},
@@ -488,7 +499,7 @@ class Simulator:
              "n_done": n_done, "n_records": n_done + 1,  # + the initial record
              "plan": json.dumps(plan), "rng_state": json.dumps(self._rng_state),
              "last_motor": json.dumps(self._last_motor),
-             "wall_seconds": self.wall_seconds + time.perf_counter() - wall0,
+             "wall_seconds": self.wall_seconds + time.perf_counter() - wall0, "steps": steps,
              "spec": json.dumps(self.spec())})
 
     @classmethod
@@ -499,14 +510,25 @@ class Simulator:
         with the same random stream, so the final file is identical (deterministic runs
         bit-for-bit).
         """
-        files = RunFiles(output)
+        files = RunFiles(output, name="resume")
         attrs = files.attrs()
+        files.lock()
+        try:
+            return cls._resume(files, attrs, progress)
+        except BaseException:
+            files.release()
+            raise
+
+    @classmethod
+    def _resume(cls, files: RunFiles, attrs: dict, progress) -> tuple["Simulator", Trajectory]:
+        output = files.path
         try:
             if str(attrs.get("status", "")) == COMPLETE:  # killed after writing the file, before tidying up
                 files.tidy()
                 sim = cls.from_spec(json.loads(attrs["spec"]))
                 sim.wall_seconds = float(attrs.get("wall_seconds", 0.0))
                 sim.steps = int(attrs.get("steps", 0))
+                files.release()
                 return sim, files.read(sim.metadata())
             ckpt = files.read_checkpoint()
             if ckpt is not None:
@@ -546,7 +568,23 @@ class Simulator:
         else:
             sim._last_motor = last
         sim.wall_seconds = float(a["wall_seconds"])
+        sim.steps = int(a.get("steps", 0))  # the steps before the checkpoint count too
         return sim, json.loads(a["plan"]), int(a["n_done"])
+
+
+def plan_run(t0: float, t_end, save_every=None, checkpoint_every=None) -> dict:
+    """The records of a run from ``t0`` to ``t_end`` [s] (checked: also what a sweep checks
+    of its points before the first runs)."""
+    t_end = check_range("time", t_end, t0 + MIN_SPAN, 1e6, lo_open=False)
+    save_every = positive("save_every", save_every if save_every is not None
+                          else (t_end - t0) / 200, t_end - t0)
+    if (t_end - t0) / save_every > MAX_RECORDS:
+        raise ParameterError("save_every", save_every, f"at least time/{MAX_RECORDS:.0e} = "
+                             f"{(t_end - t0) / MAX_RECORDS:g} s (at most {MAX_RECORDS:.0e} records)")
+    if checkpoint_every is not None:
+        checkpoint_every = positive("checkpoint_every", checkpoint_every, 1e6)
+    flush_every = max(1, int(round(checkpoint_every / save_every))) if checkpoint_every else 1000
+    return {"t0": t0, "t_end": t_end, "save_every": save_every, "flush_every": flush_every}
 
 
 def run_first_success(make, attempts, t_end: float, save_every: float):
@@ -572,5 +610,5 @@ def _progress(total: int, enabled: bool):
     return progress_bar(total=total, unit="save", desc="simulating", leave=False) if enabled else None
 
 
-__all__ = ["CHART_LIMIT", "MAX_RECORDS", "MAX_STRAIN", "Simulator", "SolverOptions", "State",
-           "run_first_success"]
+__all__ = ["CHART_LIMIT", "MAX_RECORDS", "MAX_STRAIN", "MIN_SPAN", "Simulator", "SolverOptions",
+           "State", "check_setup", "plan_run", "run_first_success"]

@@ -252,13 +252,19 @@ class PointRun:
         solver = {"method": v.get("method", "implicit" if thermal else "cvode"),
                   **({"rtol": v["rtol"]} if "rtol" in v else {}),
                   **({"dt": v["dt"]} if "dt" in v else {})}
+        from .hydro.options import Hydrodynamics
+        from .simulator import check_setup, plan_run
+
         t_end = positive("time", v.get("time", 0.3), 1e6)
         save_every = positive("save_every", v.get("save_every", t_end / 300), t_end)
         hydro = Hydrodynamics(**{key: v[name] for key, name in (("model", "hydrodynamics"),
                                                                 ("refresh", "hydro_refresh"))
                                  if name in v})
-        return cls(params, motor, boundary, SolverOptions(**solver), thermal, v.get("seed", 0),
-                   t_end, save_every, v.get("average_from"), hydro)
+        solver, seed = SolverOptions(**solver), v.get("seed", 0)
+        check_setup(params, solver, hydro, thermal, seed)  # what Simulator would refuse
+        plan_run(0.0, t_end, save_every)
+        return cls(params, motor, boundary, solver, thermal, seed, t_end, save_every,
+                   v.get("average_from"), hydro)
 
     def simulate(self) -> dict:
         """Run to ``time``; the summary fields, the regime and the integrator steps."""

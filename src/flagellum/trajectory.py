@@ -10,6 +10,7 @@ from the last checkpoint (:meth:`flagellum.simulator.Simulator.resume`).
 
 from __future__ import annotations
 
+import json
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -177,28 +178,53 @@ class RunFiles:
     """The files of one run into ``path``: main file, part files and checkpoint.
 
     Every write is atomic and reports a failure as :class:`OutputError`.
-    ``n_parts``: the part files written so far (the next part's index).
+    ``n_parts``: the part files written so far (the next part's index); ``digests``: their
+    record counts and SHA-256 checksums, stored in each checkpoint, against which a resume
+    verifies the parts (:meth:`read_checkpoint`).
     """
 
-    def __init__(self, path: str | Path, n_parts: int = 0):
-        self.path = Path(path)
+    def __init__(self, path: str | Path, n_parts: int = 0, name: str = "output"):
+        self.path = io.output_file(path, name)  # ``name``: the parameter that gave the path
         self.n_parts = int(n_parts)
+        self.digests: list[tuple[int, str]] = []
+        self._lock = io.OutputLock(self.path, name)
+
+    def lock(self) -> "RunFiles":
+        """Hold the run's lock (:class:`flagellum.io.OutputLock`): a second run into the same
+        files is refused until :meth:`release`."""
+        self._lock.acquire()
+        return self
+
+    def release(self) -> None:
+        self._lock.release()
 
     @property
     def checkpoint(self) -> Path:
         return checkpoint_path(self.path)
 
     @classmethod
-    def create(cls, path: str | Path, n_segments: int, attrs: dict, n_records: int) -> "RunFiles":
+    def create(cls, path: str | Path, n_segments: int, attrs: dict, n_records: int,
+               overwrite: bool = False) -> "RunFiles":
         """Check that the disk takes ``n_records`` records (twice: the parts and the final
-        file exist together for a moment), remove what an earlier run into ``path`` left
-        and create the (empty) main file with ``attrs``."""
+        file exist together for a moment), take the run's lock, remove what an earlier run
+        into ``path`` left (an existing ``path`` only with ``overwrite``) and create the
+        (empty) main file with ``attrs``; the lock is held until :meth:`release`."""
+        from .errors import ParameterError
+
         files = cls(path)
         io.check_writable(files.path, 2 * n_records * record_bytes(n_segments))
-        files.checkpoint.unlink(missing_ok=True)
-        io.drop_parts(files.path)
-        with writing(files.path):
-            io.create_trajectory(files.path, n_segments, {**attrs, "status": io.RUNNING})
+        files.lock()
+        try:
+            if not overwrite and files.path.exists():
+                raise ParameterError("output", str(files.path), "a new file (--overwrite replaces "
+                                     "it; --resume continues a stopped run)")
+            files.checkpoint.unlink(missing_ok=True)
+            io.drop_parts(files.path)
+            with writing(files.path):
+                io.create_trajectory(files.path, n_segments, {**attrs, "status": io.RUNNING})
+        except BaseException:
+            files.release()
+            raise
         return files
 
     def write_part(self, records: dict) -> None:
@@ -206,6 +232,8 @@ class RunFiles:
         if records["t"]:
             with writing(self.path):
                 io.write_part(self.path, self.n_parts, records)
+                self.digests.append((len(records["t"]),
+                                     io.file_digest(io.part_path(self.path, self.n_parts))))
             self.n_parts += 1
 
     def write_checkpoint(self, arrays: dict, attrs: dict) -> None:
@@ -217,7 +245,8 @@ class RunFiles:
             with h5py.File(tmp, "w") as f:
                 for k, v in arrays.items():
                     f[k] = v
-                f.attrs.update({**attrs, "n_parts": self.n_parts})
+                f.attrs.update({**attrs, "n_parts": self.n_parts,
+                                "parts": json.dumps(self.digests[:self.n_parts])})
 
     def finish(self, tail: dict, final_state, status: str, **attrs) -> None:
         """Write the main file from the parts and the records in ``tail`` (atomically)."""
@@ -240,7 +269,8 @@ class RunFiles:
 
     def read_checkpoint(self) -> tuple[dict, dict] | None:
         """(datasets, attributes) of the checkpoint, None if there is none; first checks that
-        the run can be continued here (writable) and removes what killed writes left."""
+        the run can be continued here (writable) and removes what killed writes left, then
+        that the parts are those the checkpoint wrote (:meth:`verify`)."""
         import h5py
 
         io.check_writable(self.path)
@@ -249,7 +279,43 @@ class RunFiles:
         if not self.checkpoint.exists():
             return None
         with h5py.File(self.checkpoint, "r") as f:
-            return {k: f[k][()] for k in f}, dict(f.attrs)
+            arrays, attrs = {k: f[k][()] for k in f}, dict(f.attrs)
+        self.verify(attrs)
+        return arrays, attrs
+
+    def verify(self, ckpt: dict) -> None:
+        """Refuse a checkpoint (attributes ``ckpt``) that does not fit the main file and the
+        parts: another run's parameters, a part missing or changed, records lost or added."""
+        from .errors import ParameterError
+
+        def damaged(why):
+            return ParameterError("resume", str(self.path), f"an undamaged run to continue ({why}; "
+                                  "start it again with --overwrite)")
+
+        main = self.attrs()
+        if "spec" in main and str(ckpt.get("spec")) != str(main["spec"]):
+            raise damaged(f"the parameters of {self.checkpoint.name} differ from the file's")
+        n_parts = int(ckpt["n_parts"])
+        have = {int(p.stem): p for p in io.part_files(self.path)}
+        missing = [i for i in range(n_parts) if i not in have]
+        if missing:
+            raise damaged(f"{len(missing)} of its {n_parts} part files are missing, from "
+                          f"{io.parts_dir(self.path).name}/{missing[0]:08d}.h5 on")
+        digests = [tuple(d) for d in json.loads(ckpt.get("parts", "null")) or []]
+        if digests:  # checkpoints of earlier versions have none
+            if len(digests) != n_parts:
+                raise damaged(f"the checkpoint lists {len(digests)} part files and counts {n_parts}")
+            bad = next((i for i, (_, h) in enumerate(digests) if io.file_digest(have[i]) != h), None)
+            if bad is not None:
+                raise damaged(f"part file {bad:08d}.h5 has changed since the checkpoint")
+        n_records, t = int(ckpt["n_done"]) + 1, float(ckpt["t"])  # + the initial record
+        if digests and sum(n for n, _ in digests) != n_records:
+            raise damaged(f"the parts hold {sum(n for n, _ in digests)} records, the checkpoint "
+                          f"counts {n_records}")
+        t_last = io.part_last_time(have[n_parts - 1]) if n_parts else 0.0
+        if t_last != t:
+            raise damaged(f"the parts end at t = {t_last:.9g} s, the checkpoint at {t:.9g} s")
+        self.digests = digests
 
     def reopen(self, attrs: dict, n_parts: int, n_segments: int) -> None:
         """Continue after ``n_parts`` parts: drop later ones, and mark a finished (interrupted

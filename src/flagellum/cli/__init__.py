@@ -72,11 +72,25 @@ for _cmd in COMMANDS:
 
 
 def run(argv=None) -> int:
-    """Entry point: run the CLI, turning every user error into one line and exit code 2."""
+    """Entry point: run the CLI, turning every user error into one line and exit code 2.
+
+    Python warnings (numpy's of an overflow inside a rejected trial step, say) are shown
+    after a command that succeeds; a command that fails prints its one line only."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        code = _run(argv)
+    if code == 0:
+        for w in caught:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
+    return code
+
+
+def _run(argv) -> int:
     try:
         main.main(args=argv, prog_name="flagellum", standalone_mode=False)
     except FlagellumError as exc:
-        click.echo(f"flagellum: error: {exc}", err=True)
+        click.echo(f"flagellum: error: {' '.join(str(exc).split())}", err=True)  # one line
         return 2
     except click.exceptions.Abort:
         click.echo("flagellum: aborted", err=True)

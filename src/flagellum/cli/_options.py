@@ -72,8 +72,14 @@ def output_option(dest: str, help: str, *, directory: bool = False, **kwargs):
     """``--output``/``-o``: where a command writes (a file, or with ``directory`` a folder);
     ``--out`` still parses."""
     kind = click.Path(file_okay=False) if directory else click.Path(dir_okay=False)
+
+    def named(ctx, param, value):  # click.Path takes '' (the current directory)
+        if value is not None and not str(value).strip():
+            raise ParameterError("output", value, "a folder name" if directory else "a file name")
+        return value
+
     return click.option("--output", "-o", dest, cls=AliasedOption, aliases=("--out",), type=kind,
-                        help=help, **kwargs)
+                        help=help, callback=named, **kwargs)
 
 
 def time_option(dest: str = "t_end", **kwargs):
@@ -136,21 +142,24 @@ def boundary_options(anchor: bool):
     if anchor:
         opts = [
             click.option("--anchor", type=click.Choice(["fixed", "sphere", "free"]),
-                         default="fixed", show_default=True,
+                         default=None,
                          help="first bead anchored, on a load sphere moving along z, or free "
-                              "(force- and torque-free swimmer with a body sphere)"),
+                              "(force- and torque-free swimmer with a body sphere) [default: "
+                              "fixed, sphere with --sphere-radius]"),
             click.option("--sphere-radius", type=float, default=None,
                          help="load sphere / body radius a [µm] (free: default 0, the filament alone)"),
-            click.option("--hook", type=click.Choice(["free", "elastic", "clamped"]), default="free",
-                         show_default=True, help="hook: free joint (paper), elastic, clamped"),
+            click.option("--hook", type=click.Choice(["free", "elastic", "clamped"]), default=None,
+                         help="hook: free joint (paper), elastic, clamped [default: free, "
+                              "elastic with --hook-stiffness]"),
             click.option("--hook-stiffness", type=float, default=None, help="hook stiffness k [pN·µm]"),
         ]
     else:
         opts = [
             click.option("--sphere-radius", type=float, default=None,
                          help="attach a load sphere of this radius a [µm] (default: fixed anchor)"),
-            click.option("--hook", type=click.Choice(["free", "elastic", "clamped"]), default="free",
-                         show_default=True, help="hook: free joint, elastic, or clamped along e_z"),
+            click.option("--hook", type=click.Choice(["free", "elastic", "clamped"]), default=None,
+                         help="hook: free joint, elastic, or clamped along e_z [default: free, "
+                              "elastic with --hook-stiffness]"),
             click.option("--hook-stiffness", type=float, default=None,
                          help="hook bending stiffness k [pN·µm] (with --hook elastic)"),
         ]
@@ -160,14 +169,12 @@ def boundary_options(anchor: bool):
 def boundary_from_cli(kwargs: dict) -> Boundary:
     """Pop the boundary flags from ``kwargs`` and build a validated :class:`Boundary`.
 
-    ``--anchor`` and ``--hook`` at their defaults (fixed, free) leave the choice to
-    :meth:`Boundary.from_flags`: ``--sphere-radius`` then means a load sphere and
-    ``--hook-stiffness`` k > 0 an elastic hook.
+    ``--anchor`` and ``--hook`` not given leave the choice to :meth:`Boundary.from_flags`:
+    ``--sphere-radius`` then means a load sphere and ``--hook-stiffness`` k > 0 an elastic
+    hook; given, a flag the kind does not use is refused there.
     """
-    anchor, hook = kwargs.pop("anchor", "fixed"), kwargs.pop("hook")
-    return Boundary.from_flags(anchor=None if anchor == "fixed" else anchor,
-                               sphere_radius=kwargs.pop("sphere_radius"),
-                               hook=None if hook == "free" else hook,
+    return Boundary.from_flags(anchor=kwargs.pop("anchor", None),
+                               sphere_radius=kwargs.pop("sphere_radius"), hook=kwargs.pop("hook"),
                                hook_stiffness=kwargs.pop("hook_stiffness"))
 
 
@@ -204,8 +211,14 @@ def solver_from_cli(kwargs: dict, thermal: bool):
     except ValueError:
         pass
     method = kwargs.pop("method") or ("implicit" if thermal else "cvode")
+    theta, scheme = kwargs.pop("theta"), kwargs.pop("scheme")
+    if method != "implicit" and (scheme is not None or theta is not None):  # never silently unused
+        flag, value = ("scheme", scheme) if scheme is not None else ("theta", theta)
+        raise ParameterError(flag, value, f"given only with --method implicit (method is {method!r})")
+    if theta is not None and scheme == "bdf2":
+        raise ParameterError("theta", theta, "given only with --scheme theta (scheme is 'bdf2')")
     return SolverOptions(method=method, rtol=kwargs.pop("rtol"), dt=kwargs.pop("dt"),
-                         theta=kwargs.pop("theta"), scheme=kwargs.pop("scheme"), frame=frame)
+                         theta=theta, scheme=scheme, frame=frame)
 
 
 # -- hydrodynamics ------------------------------------------------------------------------
@@ -235,7 +248,6 @@ def hydro_from_cli(kwargs: dict):
 
 def existing_file(path: str) -> Path:
     """The trajectory file argument of ``render`` and ``export``, checked to exist."""
-    p = Path(path)
-    if not p.is_file():
-        raise ParameterError("file", path, "an existing flagellum HDF5 trajectory file")
-    return p
+    from ..io import input_file
+
+    return input_file(path, "file")

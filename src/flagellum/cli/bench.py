@@ -23,9 +23,10 @@ def bench(quick, window, with_regimes, plot, as_json):
     same-work regimes (wall per simulated s, steps, steps per revolution, error of the
     time averages)."""
     from ..bench import bench as run_bench, plot_work_precision
-    from ..params import positive
+    from ..params import check_range
 
-    out = run_bench(positive("window", window, 10.0), quick=quick, with_regimes=with_regimes,
+    # at least a few records of the shortest save interval (window/100) that a run resolves
+    out = run_bench(check_range("window", window, 1e-3, 10.0, lo_open=False), quick=quick, with_regimes=with_regimes,
                     with_work_precision=plot is not None)
     if plot is not None:
         plot_work_precision(out["work_precision"], plot)

@@ -9,6 +9,7 @@ import click
 from ._options import (boundary_from_cli, boundary_options, hydro_from_cli, hydro_options,
                        motor_from_cli, motor_options, output_option, param_options,
                        params_from_cli, solver_from_cli, solver_options, time_option)
+from ..errors import ParameterError
 from ._output import emit_json, emit_table
 
 
@@ -27,11 +28,12 @@ from ._output import emit_json, emit_table
 @output_option("output", "HDF5 trajectory file", default=None)
 @click.option("--checkpoint-every", type=float, default=None,
               help="write records and a checkpoint every T simulated seconds (with --output)")
+@click.option("--overwrite", is_flag=True, help="replace an existing --output file")
 @click.option("--resume", "resume_file", type=click.Path(dir_okay=False), default=None,
               help="continue the run in this HDF5 file from its last checkpoint")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object (no progress bar)")
-def simulate(t_end, save_every, average_from, thermal, seed, output, checkpoint_every, resume_file,
-             as_json, **kwargs):
+def simulate(t_end, save_every, average_from, thermal, seed, output, checkpoint_every, overwrite,
+             resume_file, as_json, **kwargs):
     """Simulate the motor-driven filament and report time-averaged observables."""
     from ..params import check_range
     from ..simulator import Simulator
@@ -40,6 +42,7 @@ def simulate(t_end, save_every, average_from, thermal, seed, output, checkpoint_
         check_range("average_from", average_from, 0.0, math.inf if resume_file else t_end,
                     lo_open=False)
     if resume_file is not None:
+        _check_alone(click.get_current_context())
         sim, traj = Simulator.resume(resume_file, progress=False if as_json else None)
         _report_run(sim, traj, average_from, resume_file, as_json)
         return
@@ -52,8 +55,23 @@ def simulate(t_end, save_every, average_from, thermal, seed, output, checkpoint_
                     hydrodynamics=hydro_from_cli(kwargs))
     traj = sim.run(t_end, save_every=save_every if save_every is not None else t_end / 300,
                    output=output, progress=False if as_json else None,
-                   checkpoint_every=checkpoint_every)
+                   checkpoint_every=checkpoint_every, overwrite=overwrite)
     _report_run(sim, traj, average_from, output, as_json)
+
+
+#: what a resumed run may be given besides --resume: its report (the run is the checkpoint's)
+_WITH_RESUME = {"resume_file", "as_json", "average_from"}
+
+
+def _check_alone(ctx: click.Context) -> None:
+    """Refuse flags that a resumed run would ignore: its physics, output and settings are
+    those stored in the file."""
+    given = [p for p in ctx.command.params if p.name not in _WITH_RESUME
+             and ctx.get_parameter_source(p.name) not in (click.core.ParameterSource.DEFAULT, None)]
+    if given:
+        raise ParameterError("resume", ", ".join(p.opts[0] for p in given),
+                             "given alone (the resumed run takes its parameters, output and "
+                             "settings from the file; only --json and --average-from combine)")
 
 
 def _report_run(sim, traj, average_from, output, as_json):

@@ -11,7 +11,7 @@ import math
 import click
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import FlagellumError, ParameterError
 from ..paper import HELICES
 from ..params import check_range, check_real
 from ._options import output_option, param_options, params_from_cli, time_option
@@ -65,9 +65,11 @@ def _count(name: str, value: int, lo: int, hi: int) -> int:
 def buckling(m_hat, f_par, f_perp, chi, base, top, force_profile, torque_profile, unknowns,
              guess, method, samples, as_json):
     """Critical values of the linearised buckling equations (paper Sec. 4.1, Eqs. (29)–(30))."""
-    from ..theory.buckling import BucklingProblem, solve
+    from ..theory.buckling import LOAD_LIMIT, BucklingProblem, solve
 
-    prob = BucklingProblem(m_hat, f_par, f_perp, chi, base, top, force_profile, torque_profile)
+    loads = [check_range(name, v, -LOAD_LIMIT, LOAD_LIMIT, lo_open=False)
+             for name, v in (("m_hat", m_hat), ("f_par", f_par), ("f_perp", f_perp), ("chi", chi))]
+    prob = BucklingProblem(*loads, base, top, force_profile, torque_profile)
     cp = solve(prob, unknowns, _floats("guess", guess), method=method)
     mode = cp.mode(_count("samples", samples, 2, 10001))
     out = {**cp.as_dict(), "mode": mode.as_dict()}
@@ -111,7 +113,14 @@ def manifold(out_dir, m_max, m_steps, f_par_max, f_par_steps, inv_a_max, inv_a_s
                                  _count("f_par_steps", f_par_steps, 2, 1001)),
         inv_a_values=np.linspace(0, check_range("inv_a_max", inv_a_max, 0, 1000),
                                  _count("inv_a_steps", inv_a_steps, 1, 1001)))
-    result = compute_manifold(params, base=base, workers=_count("workers", workers, 1, 256), **grid)
+    try:
+        result = compute_manifold(params, base=base, workers=_count("workers", workers, 1, 256), **grid)
+    except (ArithmeticError, IndexError, ValueError, np.linalg.LinAlgError) as exc:
+        if isinstance(exc, ParameterError):
+            raise
+        raise FlagellumError(f"the critical manifold cannot be followed for these parameters "
+                             f"(γ∥, γ⊥, γR = {', '.join(f'{g:.3g}' for g in params.gammas)}; "
+                             f"{type(exc).__name__}: {exc})") from None
     paths = write_manifold(result, out_dir)
     summary = {**result.summary(), "files": [str(p) for p in paths]}
     if as_json:

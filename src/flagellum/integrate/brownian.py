@@ -418,8 +418,9 @@ class ImplicitStepper:
                                   f"divided by {2 ** (depth - 1)}: Newton iteration did not "
                                   f"converge (the filament may have blown up; try a smaller --dt)")
         h = dt / 2
-        if len(g):
-            extra = np.random.Generator(np.random.PCG64([self.seed, self.n_steps, depth])).standard_normal(len(g))
+        if len(g):  # seeded by the step's start time: the same bits in a resumed run
+            key = [self.seed, int(np.float64(t0).view(np.uint64)), depth]
+            extra = np.random.Generator(np.random.PCG64(key)).standard_normal(len(g))
             halves = ((g + extra) / math.sqrt(2), (g - extra) / math.sqrt(2))
         else:
             halves = (g, g)

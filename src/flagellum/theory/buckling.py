@@ -57,6 +57,7 @@ from ..errors import FlagellumError, ParameterError
 from ..params import check_choice, check_real
 
 NAMES = ("m_hat", "f_par", "f_perp", "chi")
+LOAD_LIMIT = 1e6  #: largest |value| of a given dimensionless load: beyond, the shooting matrices overflow
 BASES = ("hinged", "clamped")
 TOPS = ("free", "hinged", "clamped")
 PROFILES = ("linear", "uniform")

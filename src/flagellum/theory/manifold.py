@@ -34,6 +34,7 @@ from .._util import jsonable
 from ..helix import Helix
 from ..hydro.rft import effective_bending_rigidity, full_turn_coefficients
 from ..parallel import default_workers, pmap
+from ..errors import ParameterError
 from ..params import Params, check_real
 from .buckling import (BucklingProblem, CriticalPoint, NoConvergenceError,
                        TrivialSolutionError, follow, is_tilt_mode, line_path, scan_path,
@@ -65,8 +66,11 @@ class HelicalRod:
         fil = params.filament
         helix = Helix.from_filament(fil)
         gp, gn, _ = params.gammas
-        co = full_turn_coefficients(helix, gp, gn)
         L0 = helix.axial_length
+        if not L0 > 0:  # a ring (τ0 = 0) has no helix axis to buckle about
+            raise ParameterError("tau0", fil.tau0, "> 0 for the helical rod theory (a helix "
+                                 "with an axis)")
+        co = full_turn_coefficients(helix, gp, gn)
         return cls(L0, effective_bending_rigidity(helix, fil.bend_rigidity, fil.twist_rigidity),
                    fil.bend_rigidity, helix.pitch_angle, helix.radius, helix.chirality,
                    co["A_perp"] / L0, co["A_par"] / L0, co["B_par"] / L0, co["C_par"] / L0,

@@ -206,6 +206,8 @@ class Motor:
             raise ParameterError("law", None, "given (a MotorLaw) with drive = 'law'")
         if self.drive != "law" and (self.law is not None or self.cw_law is not None):
             raise ParameterError("law", self.law, "only with drive = 'law'")
+        if self.drive == "law" and self.ramp_time:
+            raise ParameterError("ramp_time", self.ramp_time, "0 with drive = 'law'")
         if self.drive != "torque" and self.schedule is not None:
             raise ParameterError("schedule", self.schedule, "only with drive = 'torque'")
         if self.reversals is not None and self.reversal_rates is not None:

@@ -242,7 +242,8 @@ class Simulator:
                 "solver": json.dumps(asdict(self.solver)), "thermal": self.thermal, "seed": self.seed,
                 "hydrodynamics": self.hydrodynamics.model,
                 "helix_radius": Helix.from_filament(self.params.filament).radius,
-                "segments": self.model.n, **io.provenance()}
+                "segments": self.model.n,
+                "body_rotation_per_torque": self.model.body_rotation_per_torque, **io.provenance()}
 
     def spec(self) -> dict:
         """Everything needed to rebuild this simulator (JSON-serializable)."""

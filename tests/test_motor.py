@@ -3,6 +3,7 @@ clamp or a law solved exactly from the hook balance Eq. (12) inside the kernel."
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -174,6 +175,21 @@ def test_reversal_flips_the_thrust():
     assert f_before > 0.2 and f_after < -0.2
     assert set(tr.torque[before]) == {0.5} and set(tr.torque[after]) == {-0.5}
     assert f_after == pytest.approx(-f_before, rel=0.15)  # pulling: the free hook tilts a little
+
+
+def test_spec_and_restart_keep_the_drive():
+    motor = Motor(drive="law", law=SLOPED, cw_law=MotorLaw((0.0, 500.0), (0.8, 0.0)),
+                  reversal_rates=(200.0, 300.0), reversal_seed=3)
+    sim = Simulator(Params(), motor, Boundary())
+    again = Simulator.from_spec(json.loads(json.dumps(sim.spec())))
+    assert again.motor == motor
+    assert again.motor.switching_times(0.1) == motor.switching_times(0.1)
+    whole = Simulator(Params(), motor, Boundary()).run(0.02, save_every=0.001)
+    split = Simulator(Params(), motor, Boundary())
+    split.run(0.01, save_every=0.001)
+    second = split.run(0.02, save_every=0.001)  # the same reversals after a restart
+    assert np.sign(second.torque[-1]) == np.sign(whole.torque[-1]) == motor.direction(0.02)
+    np.testing.assert_allclose(second.torque[-1], whole.torque[-1], rtol=1e-3)
 
 
 def test_free_swimmer_law_sees_the_speed_relative_to_the_body():

@@ -58,7 +58,8 @@ def simulate(t_end, save_every, average_from, thermal, seed, output, checkpoint_
 
 def _report_run(sim, traj, average_from, output, as_json):
     summary = traj.summary(average_from)
-    torque = sim.motor.final_torque if sim.motor.drive == "torque" else summary.torque_mean
+    torque = (sim.motor.final_torque * sim.motor.direction(sim.t) if sim.motor.drive == "torque"
+              else summary.torque_mean)
     out = {**summary.to_dict(), "steps": sim.steps,
            "wall_seconds": sim.wall_seconds, "torque": torque,
            "segments": sim.params.filament.n_segments, "hydrodynamics": sim.hydrodynamics.model}

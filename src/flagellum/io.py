@@ -194,7 +194,7 @@ RECORD_META = {
     "anchor_force": (("xyz",), "pN", "elastic force on bead 0"),
     "motor_speed": ((), "rad/s", "rotation rate of the hook frame about e_z"),
     "motor_angle": ((), "rad", "accumulated (unwrapped) rotation of the hook frame about e_z"),
-    "torque": ((), "pN um", "motor torque"),
+    "torque": ((), "pN um", "motor torque applied (an output of a speed clamp or a motor law)"),
     "energy": ((), "pN um", "elastic energy of the filament"),
     "frame_angle": ((), "rad", "angle of the co-rotating computational frame about e_z"),
 }

@@ -173,11 +173,14 @@ class Simulator:
         self.thermal = bool(thermal)
         check_setup(self.params, self.solver, self.hydrodynamics, self.thermal, seed)
         self.seed = int(seed) if seed is not None else 0
+        if self.thermal and self.motor.drive != "torque":
+            raise ParameterError("drive", self.motor.drive, "'torque' for a thermal run")
         f = self.solver.frame
+        final = self.motor.expected_torque(pinned_omega_per_torque(self.params))
         self._omega_scale = pinned_omega_per_torque(self.params) * max(
-            abs(self.motor.final_torque), abs(self.motor.torque), 1e-3)
+            abs(final), abs(self.motor.torque) if self.motor.drive == "torque" else 0.0, 1e-3)
         omega = 0.0 if f == "lab" else (float(f) if not isinstance(f, str) else
-                                         pinned_omega_per_torque(self.params) * self.motor.final_torque)
+                                         pinned_omega_per_torque(self.params) * final)
         self.model = RodModel(self.params, self.motor, self.boundary, omega_frame=omega,
                               hydrodynamics=self.hydrodynamics)
         self.t = 0.0
@@ -250,7 +253,8 @@ class Simulator:
                 "solver": json.dumps(asdict(self.solver)), "thermal": self.thermal, "seed": self.seed,
                 "hydrodynamics": self.hydrodynamics.model,
                 "helix_radius": Helix.from_filament(self.params.filament).radius,
-                "segments": self.model.n, **io.provenance()}
+                "segments": self.model.n,
+                "body_rotation_per_torque": self.model.body_rotation_per_torque, **io.provenance()}
 
     def spec(self) -> dict:
         """Everything needed to rebuild this simulator (JSON-serializable)."""
@@ -264,6 +268,9 @@ class Simulator:
         motor = dict(spec["motor"])
         if motor.get("schedule") is not None:
             motor["schedule"] = tuple(tuple(x) for x in motor["schedule"])
+        for k in ("reversals", "reversal_rates"):
+            if motor.get(k) is not None:
+                motor[k] = tuple(motor[k])
         return cls(Params.from_dict(spec["params"]), Motor(**motor), Boundary(**spec["boundary"]),
                    thermal=spec["thermal"], seed=spec["seed"], solver=SolverOptions(**spec["solver"]),
                    hydrodynamics=Hydrodynamics.from_dict(spec.get("hydrodynamics")))
@@ -285,7 +292,7 @@ class Simulator:
         for k, v in (("t", t), ("positions", positions(y) @ rot.T), ("angles", angles(y)),
                      ("hook_tangent", rot @ u), ("thrust", force[2]), ("anchor_force", force),
                      ("motor_speed", m.last_motor_speed),
-                     ("motor_angle", self._motor_angle()), ("torque", m.motor(t)),
+                     ("motor_angle", self._motor_angle()), ("torque", m.last_torque),
                      ("energy", m.last_energy), ("frame_angle", self.frame_angle)):
             buf[k].append(np.array(v, float))
 

@@ -61,7 +61,7 @@ VARIABLES: dict[str, str] = {
     "fallback": "str",  #: JSON of the fallback settings that produced the point ("" = none)
 }
 #: variables that files of older versions lack (filled in on resume)
-_OPTIONAL = {"fallback", "swimming_speed"}
+_OPTIONAL = {"fallback", "swimming_speed", "torque_mean", "motor_speed_mean"}
 #: what a fallback may change: solver settings only (the physics of a point stays fixed)
 FALLBACK_PARAMETERS = ("method", "rtol", "dt")
 _FILL = {"f8": math.nan, "i8": -1, "str": ""}
@@ -82,6 +82,8 @@ VARIABLE_ATTRS: dict[str, tuple[str | None, str]] = {
     "t_from": ("s", "start of the averaging window"),
     "t_end": ("s", "end of the run"),
     "samples": ("1", "records in the averaging window"),
+    "torque_mean": ("pN um", "mean motor torque applied (operating point)"),
+    "motor_speed_mean": ("rad/s", "mean motor speed relative to the body (operating point)"),
     "regime": (None, "regime of the run (flagellum.analysis.regimes)"),
     "steps": ("1", "integrator steps"),
     "wall_seconds": ("s", "wall-clock time of the point in its worker"),

@@ -53,7 +53,8 @@ class Trajectory:
         filament); once the filament buckles it turns about its tilted local helix axis
         (angle β to e_z), and the mean of ``motor_speed`` is smaller, by about cos β
         (paper Sec. 3.1.1).
-    torque : (n_t,) motor torque M(t) [pN·µm].
+    torque : (n_t,) motor torque applied [pN·µm] (for a speed clamp or a torque–speed law:
+        the torque the drive takes, an output).
     energy : (n_t,) elastic energy [pN·µm].
     frame_angle : (n_t,) angle of the computational (co-rotating) frame about e_z [rad].
     meta : the run's metadata (parameters, solver, provenance:
@@ -129,7 +130,15 @@ class Trajectory:
         regime, with the drifting quantities in ``drifting`` and why in ``regime_note``.
         """
         return summarize_run(self.t, self.thrust, self.motor_angle, self.positions, self.energy,
-                             self.meta.get("helix_radius", 0.2), t_from)
+                             self.meta.get("helix_radius", 0.2), t_from, self.torque,
+                             self.relative_motor_speed)
+
+    @property
+    def relative_motor_speed(self) -> np.ndarray:
+        """(n_t,) motor speed relative to the body [rad/s]: ``motor_speed`` minus the body's
+        rotation rate about e_z (−M/(8πηa³) for a free swimmer with a body; 0 otherwise), the
+        speed a torque–speed law is evaluated at."""
+        return self.motor_speed + float(self.meta.get("body_rotation_per_torque", 0.0)) * self.torque
 
 
 def open_trajectory(path: str | Path):

@@ -81,15 +81,20 @@ class Summary:
     t_from: float
     t_end: float
     samples: int
+    #: operating point of the motor: mean torque [pN·µm] and mean motor speed relative to the
+    #: body [rad/s] (ω_hook·e_z minus the body's rate; the speed a motor law is evaluated at)
+    torque_mean: float = math.nan
+    motor_speed_mean: float = math.nan
 
     def to_dict(self) -> dict:
         return asdict(self)
 
 
 def summarize(t, thrust, motor_angle, positions, energy, helix_radius: float,
-              t_from: float | None = None) -> Summary:
+              t_from: float | None = None, torque=None, motor_speed=None) -> Summary:
     """Averages over t ≥ t_from (default: the last half of the run); ω is the slope of the
-    unwrapped ``motor_angle`` (rotation rate about the local helix axis at the motor)."""
+    unwrapped ``motor_angle`` (rotation rate about the local helix axis at the motor).
+    ``torque`` and ``motor_speed`` (relative to the body) give the operating point."""
     t = np.asarray(t, float)
     if t_from is None:
         t_from = t[0] + 0.5 * (t[-1] - t[0])
@@ -107,4 +112,9 @@ def summarize(t, thrust, motor_angle, positions, energy, helix_radius: float,
                    end_to_end_mean=float(r.mean()), end_to_end_std=float(r.std()),
                    energy_final=float(np.asarray(energy)[-1]), centroid_offset=rho,
                    swimming_speed=_slope(t[sel], np.asarray(positions)[sel][:, 0, 2]),
-                   t_from=float(t_from), t_end=float(t[-1]), samples=int(sel.sum()))
+                   t_from=float(t_from), t_end=float(t[-1]), samples=int(sel.sum()),
+                   torque_mean=_mean(torque, sel), motor_speed_mean=_mean(motor_speed, sel))
+
+
+def _mean(x, sel) -> float:
+    return math.nan if x is None else float(np.mean(np.asarray(x, float)[sel]))

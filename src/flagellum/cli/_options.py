@@ -14,7 +14,7 @@ from pathlib import Path
 import click
 
 from ..errors import ParameterError
-from ..motor import Boundary, Motor
+from ..motor import Boundary, Motor, MotorLaw
 from ..params import Filament, Fluid, Params
 
 PARAM_HELP = {
@@ -119,18 +119,55 @@ def params_from_cli(kwargs: dict) -> Params:
 # -- motor --------------------------------------------------------------------------------
 
 def motor_options(func):
-    """``--torque`` and ``--ramp-time``."""
+    """The drive — ``--torque``, ``--motor-speed`` (speed clamp) or ``--motor-law`` (torque–speed
+    law) — ``--ramp-time`` and the reversals (``--reversal-times`` or ``--reversal-rates`` with
+    ``--reversal-seed``)."""
     return _add(func, [
-        click.option("--torque", type=float, default=1.0, show_default=True,
-                     help="motor torque M [pN·µm] (> 0 pushes)"),
+        click.option("--torque", type=float, default=None,
+                     help="motor torque M [pN·µm] (> 0 pushes)  [default: 1.0]"),
+        click.option("--motor-speed", type=float, default=None,
+                     help="speed clamp: impose the motor speed ω [rad/s] relative to the body "
+                          "(the torque is an output)"),
+        click.option("--motor-law", type=str, default=None,
+                     help="torque–speed law: 'e-coli' (Chen & Berg 2000) or a table FILE "
+                          "(two-column CSV speed [rad/s], torque [pN·µm], or TOML speeds/torques)"),
         click.option("--ramp-time", type=float, default=0.0, show_default=True,
-                     help="ramp the torque on smoothly over this time [s]"),
+                     help="ramp the torque (or the clamped speed) on smoothly over this time [s]"),
+        click.option("--reversal-times", type=str, default=None,
+                     help="reverse the motor (CCW <-> CW) at these times [s], comma-separated"),
+        click.option("--reversal-rates", type=str, default=None,
+                     help="random reversals: rates CCW->CW,CW->CCW [1/s] (telegraph process)"),
+        click.option("--reversal-seed", type=int, default=0, show_default=True,
+                     help="seed of the random reversal times"),
     ])
+
+
+def _floats(name: str, text: str | None) -> tuple | None:
+    if text is None:
+        return None
+    try:
+        return tuple(float(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise ParameterError(name, text, "comma-separated numbers")
 
 
 def motor_from_cli(kwargs: dict) -> Motor:
     """Pop the motor flags from ``kwargs`` and build a validated :class:`Motor`."""
-    return Motor(kwargs.pop("torque"), ramp_time=kwargs.pop("ramp_time"))
+    torque, speed, law = kwargs.pop("torque"), kwargs.pop("motor_speed"), kwargs.pop("motor_law")
+    given = [f for f, v in (("--torque", torque), ("--motor-speed", speed), ("--motor-law", law))
+             if v is not None]
+    if len(given) > 1:
+        raise ParameterError("drive", " ".join(given), "one of --torque, --motor-speed, --motor-law")
+    rev = dict(ramp_time=kwargs.pop("ramp_time"),
+               reversals=_floats("reversal_times", kwargs.pop("reversal_times")),
+               reversal_rates=_floats("reversal_rates", kwargs.pop("reversal_rates")),
+               reversal_seed=kwargs.pop("reversal_seed"))
+    if speed is not None:
+        return Motor(drive="speed", speed=speed, **rev)
+    if law is not None:
+        return Motor(drive="law", law=MotorLaw.e_coli() if law == "e-coli" else MotorLaw.from_file(law),
+                     **rev)
+    return Motor(1.0 if torque is None else torque, **rev)
 
 
 # -- boundary -----------------------------------------------------------------------------

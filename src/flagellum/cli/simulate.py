@@ -75,11 +75,14 @@ def _check_alone(ctx: click.Context) -> None:
 
 
 def _report_run(sim, traj, average_from, output, as_json):
-    out = {**traj.summary(average_from).to_dict(), "steps": sim.steps,
-           "wall_seconds": sim.wall_seconds, "torque": sim.motor.final_torque,
+    summary = traj.summary(average_from)
+    torque = (sim.motor.final_torque * sim.motor.direction(sim.t) if sim.motor.drive == "torque"
+              else summary.torque_mean)
+    out = {**summary.to_dict(), "steps": sim.steps,
+           "wall_seconds": sim.wall_seconds, "torque": torque,
            "segments": sim.params.filament.n_segments, "hydrodynamics": sim.hydrodynamics.model}
     if sim.boundary.anchor == "free" and sim.boundary.sphere_radius:
-        out["body_rotation_rate"] = sim.boundary.body_rotation_rate(sim.motor.final_torque,
+        out["body_rotation_rate"] = sim.boundary.body_rotation_rate(torque,
                                                                     sim.params.fluid.viscosity)
     if output:
         out["output"] = str(output)

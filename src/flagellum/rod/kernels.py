@@ -199,8 +199,14 @@ def bead_gradient(n, h, K, T, LEN, GT, DR):
 
 # indices into the packed parameter arrays of :func:`rhs`
 P_H, P_A, P_C, P_K, P_KAPPA, P_TAU, P_HOOKK, P_SPHERE, P_GPAR, P_GPERP, P_GROT, P_TORQUE, \
-    P_OMEGA, P_ELASTIC = range(14)
-I_N, I_HOOK, I_ANCHOR, I_GEN, I_HYDRO = range(5)
+    P_OMEGA, P_ELASTIC, P_BODY, P_LAW = range(16)
+I_N, I_HOOK, I_ANCHOR, I_GEN, I_HYDRO, I_DRIVE, I_NLAW, I_NLAW_CW = range(8)
+#: iprm[I_DRIVE]: what prm[P_TORQUE] is (:class:`flagellum.motor.Motor`). DRIVE_TORQUE: the
+#: motor torque; DRIVE_SPEED: the clamped motor speed relative to the body; DRIVE_LAW: the
+#: direction ±1 of a torque–speed law whose CCW and CW branches follow prm[P_LAW:] as
+#: [speeds, torques] of iprm[I_NLAW] and iprm[I_NLAW_CW] nodes. prm[P_BODY] = 1/(8πηa³):
+#: the body's counter-rotation per unit motor torque of a free swimmer (0 otherwise)
+DRIVE_TORQUE, DRIVE_SPEED, DRIVE_LAW = 0, 1, 2
 #: iprm[I_HYDRO]: the bead mobility of :func:`rhs`. HYDRO_LOCAL: the local drag of
 #: :mod:`flagellum.hydro.local` alone (RFT); HYDRO_FROZEN: plus the frozen dense correction
 #: ΔM (the workspace's last array, U += ΔM F; :mod:`flagellum.hydro.dynamics`); HYDRO_BANDED:
@@ -236,6 +242,49 @@ def _add_correction(DM, DR, V, n, width):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def _law_torque(prm, off, nn, a, b):
+    """The torque N of the law with nodes prm[off:off+nn] (speeds), prm[off+nn:off+2nn]
+    (torques; held outside the nodes) on the load line u = a + b N (b > 0): the root of the
+    increasing N − f(a + b N), exact for the piecewise-linear f."""
+    for k in range(nn):
+        sk, mk = prm[off + k], prm[off + nn + k]
+        if (sk - a) / b - mk >= 0.0:  # the load line has passed the law at node k
+            if k == 0:
+                return mk
+            s0, m0 = prm[off + k - 1], prm[off + nn + k - 1]
+            sl = (mk - m0) / (sk - s0)
+            u = (a / b + m0 - sl * s0) / (1.0 / b - sl)
+            return m0 + sl * (u - s0)
+    return prm[off + 2 * nn - 1]
+
+
+@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
+def _hook_rate(tz, zt, zp):
+    """Rate of the hook frame about e_z per unit torque M e_z (Eq. (12))."""
+    return tz * tz / zt + ((1.0 - tz * tz) / zp if zp != 0.0 else 0.0)
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def motor_torque(prm, iprm, w0, tz, zt, zp):
+    """Motor torque of a speed clamp or a torque–speed law (iprm[I_DRIVE]). By the hook
+    balance Eq. (12) the hook frame's rate about e_z is linear in the torque M e_z, and so is
+    the motor speed relative to the body: ω = w0 + B M, with w0 the rate without the motor
+    torque and B = t_z²/zt + (1 − t_z²)/zp + prm[P_BODY] (tangent component t_z, friction zt
+    about the tangent and zp across it; zp = 0: a clamped hook). So the clamp's torque
+    (ω_c − w0)/B and the law's operating point are exact; NaN when B ≤ 0 (no operating point)."""
+    b = _hook_rate(tz, zt, zp) + prm[P_BODY]
+    if not b > 0.0:
+        return math.nan
+    d = prm[P_TORQUE]
+    if iprm[I_DRIVE] == DRIVE_SPEED:
+        return (d - w0) / b
+    n1 = iprm[I_NLAW]
+    if d >= 0.0:
+        return _law_torque(prm, P_LAW, n1, w0, b)
+    return -_law_torque(prm, P_LAW + 2 * n1, iprm[I_NLAW_CW], -w0, b)
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
     """Overdamped dynamics (paper Eqs. (6)–(7) and the hook balance Eq. (12), Sec. 2.3).
 
@@ -249,7 +298,10 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
     the elastic forces and the motor torque scaled by prm[P_ELASTIC].
     If iprm[I_GEN] = 1 they are *generalized* forces conjugate to (r_i, θ_i) and are turned
     into physical ones with the chart's spin connection (used for the Itô drift).
-    Returns (energy, elastic force on bead 0 (3 values), motor speed ω_hook·e_z in the lab).
+    The motor torque is prm[P_TORQUE] or, for a speed clamp or a torque–speed law
+    (iprm[I_DRIVE]), solved from the hook balance (:func:`motor_torque`).
+    Returns (energy, elastic force on bead 0 (3 values), motor speed ω_hook·e_z in the lab,
+    motor torque applied).
     """
     n = iprm[I_N]
     h = prm[P_H]
@@ -324,11 +376,22 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
         wx = wt * tx + ipp * (mx - mt * tx)
         wy = wt * ty + ipp * (my - mt * ty)
         wz = wt * tz + ipp * (mz - mt * tz)
+    torque = el * prm[P_TORQUE]
+    if iprm[I_DRIVE] != DRIVE_TORQUE:  # speed clamp or law: prm[P_TORQUE] is no torque; the
+        # rates are linear in the torque M e_z: take the drive value off, add the motor torque
+        dm = -torque
+        torque = 0.0 if el == 0.0 else motor_torque(prm, iprm, wz + dm * _hook_rate(tz, zt, zp), tz, zt, zp)
+        dm += torque
+        wt = dm * tz / zt
+        wx, wy, wz = wx + wt * tx, wy + wt * ty, wz + wt * tz
+        if zp != 0.0:
+            ipp = dm / zp
+            wx, wy, wz = wx - ipp * tz * tx, wy - ipp * tz * ty, wz + ipp * (1.0 - tz * tz)
     wz -= omega_frame
     ydot[0], ydot[1], ydot[2] = _cross(wx, wy, wz, y[0], y[1], y[2])
     dtx, dty, dtz = _cross(wx, wy, wz, tx, ty, tz)
     ydot[6] = wx * tx + wy * ty + wz * tz - (S[0, 0] * dtx + S[0, 1] * dty + S[0, 2] * dtz)
-    return energy, f0x, f0y, f0z, wz + omega_frame
+    return energy, f0x, f0y, f0z, wz + omega_frame, torque
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")

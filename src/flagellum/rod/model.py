@@ -7,10 +7,12 @@ layout, the reference-frame charts and the workspace arrays, and exposes ``rhs(t
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
 
+from ..errors import SimulationError
 from ..helix import DiscreteHelix, discrete_helix
 from ..hydro.dynamics import correction
 from ..hydro.options import Hydrodynamics
@@ -27,6 +29,7 @@ NONLOCAL_JACOBIAN_BAND = (23, 19)
 
 _HOOK = {"free": K.HOOK_FREE, "elastic": K.HOOK_ELASTIC, "clamped": K.HOOK_CLAMPED}
 _ANCHOR = {"fixed": K.ANCHOR_FIXED, "sphere": K.ANCHOR_SPHERE, "free": K.ANCHOR_FREE}
+_DRIVE = {"torque": K.DRIVE_TORQUE, "speed": K.DRIVE_SPEED, "law": K.DRIVE_LAW}
 
 
 def state_size(n: int) -> int:
@@ -84,11 +87,15 @@ class RodModel:
         self.last_force = np.zeros(3)  #: elastic force on bead 0 at the last rhs call
         self._colors = None  # (key, (color, lo, hi)) of jacobian_colors
         gp, gn, gr = self.gammas
+        ccw, cw = self.motor.law_table()
         self.prm = np.array([self.h, f.bend_rigidity, f.twist_rigidity, f.stretch_modulus,
                              f.kappa0, f.torsion, self.boundary.hook_stiffness,
-                             self.sphere_drag, gp, gn, gr, self.motor(0.0), self.omega_frame, 1.0])
+                             self.sphere_drag, gp, gn, gr, self.motor(0.0), self.omega_frame, 1.0,
+                             self.body_rotation_per_torque, *ccw, *cw])
         self.iprm = np.array([self.n, _HOOK[self.boundary.hook], _ANCHOR[self.boundary.anchor], 0,
-                              K.HYDRO_FROZEN if self._nonlocal else K.HYDRO_LOCAL], dtype=np.int64)
+                              K.HYDRO_FROZEN if self._nonlocal else K.HYDRO_LOCAL,
+                              _DRIVE[self.motor.drive], len(ccw) // 2, len(cw) // 2], dtype=np.int64)
+        self.last_torque = self.prm[K.P_TORQUE] if self.motor.drive == "torque" else 0.0
 
     # -- state -----------------------------------------------------------------------
     def initial_state(self, helix: DiscreteHelix | None = None) -> np.ndarray:
@@ -241,8 +248,26 @@ class RodModel:
                     self._zf if noise_f is None else noise_f,
                     self._zm if noise_m is None else noise_m, self._zh, self._ws)
         self.last_force[:] = res[1:4]
-        self.last_energy, self.last_motor_speed = res[0], res[4]
+        self.last_energy, self.last_motor_speed, self.last_torque = res[0], res[4], res[5]
+        if not math.isfinite(self.last_torque):
+            raise SimulationError(f"motor drive {self.motor.drive!r}: no operating point at "
+                                  f"t = {t:.6g} s (the hook cannot turn about the motor axis)")
         return ydot
+
+    @property
+    def body_rotation_per_torque(self) -> float:
+        """−(body rotation rate)/M [rad/(s·pN·µm)]: 1/(8πηa³) for a free swimmer with a
+        body sphere, else 0 (the body does not turn)."""
+        b = self.boundary
+        if b.anchor != "free" or not b.sphere_radius:
+            return 0.0
+        return 1.0 / (8 * math.pi * self.params.fluid.viscosity * b.sphere_radius ** 3)
+
+    @property
+    def last_relative_motor_speed(self) -> float:
+        """Motor speed relative to the body at the last :meth:`rhs` call [rad/s]: the hook
+        frame's rate about e_z minus the body's (−M/(8πηa³) for a free swimmer)."""
+        return self.last_motor_speed + self.body_rotation_per_torque * self.last_torque
 
     def bead_force(self, t: float, y: np.ndarray) -> np.ndarray:
         """Elastic force on bead 0 (the anchor) at state y."""

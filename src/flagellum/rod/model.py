@@ -79,6 +79,7 @@ class RodModel:
         self.ref_e = np.zeros((n1, 3))
         self.ref_m = np.zeros(n1)  #: last known reference twist of each joint (branch of ψ)
         self._nonlocal = not self.hydrodynamics.is_local
+        self._solved_drive = self.motor.drive != "torque"  #: the kernel solves for the torque
         self._ws = K.workspace(self.n, 3 * n1 if self._nonlocal else 0)
         self._frozen = None  #: bead positions the nonlocal correction ΔM was built at
         self._zf = np.zeros((n1, 3))
@@ -249,7 +250,7 @@ class RodModel:
                     self._zm if noise_m is None else noise_m, self._zh, self._ws)
         self.last_force[:] = res[1:4]
         self.last_energy, self.last_motor_speed, self.last_torque = res[0], res[4], res[5]
-        if not math.isfinite(self.last_torque):
+        if self._solved_drive and not math.isfinite(self.last_torque):
             raise SimulationError(f"motor drive {self.motor.drive!r}: no operating point at "
                                   f"t = {t:.6g} s (the hook cannot turn about the motor axis)")
         return ydot

@@ -21,7 +21,8 @@ from .trajectory import Trajectory
 def simulate(torque: float = 1.0, time: float = 0.3, *, save_every: float | None = None,
              ramp_time: float = 0.0, anchor: str | None = None, sphere_radius: float | None = None,
              hook: str | None = None, hook_stiffness: float | None = None,
-             thermal: bool = False, kT: float | None = None, seed: int = 0,
+             body_radius: float | None = None, body_aspect: float | None = None,
+             motor_offset: float | None = None, thermal: bool = False, kT: float | None = None, seed: int = 0,
              method: str | None = None, rtol: float = 1e-6, dt: float = 5e-5,
              scheme: str | None = None, theta: float | None = None, frame: str | float = "auto",
              output: str | Path | None = None, checkpoint_every: float | None = None,
@@ -52,6 +53,13 @@ def simulate(torque: float = 1.0, time: float = 0.3, *, save_every: float | None
         first tangent held along −e_z); default: ``"elastic"`` when ``hook_stiffness`` > 0,
         else ``"free"``.
     hook_stiffness : bending stiffness k of the elastic hook [pN·µm].
+    body_radius : a whole cell (implies ``anchor="free"``): a rigid body free in 3D with the
+        motor on its surface and the motor axis along the local normal, turning with it; its
+        (equatorial) radius a [µm] (:mod:`flagellum.hydro.body`; docs/motor.md, "Whole cell").
+    body_aspect : the cell body as a prolate spheroid with polar semi-axis ``body_aspect``·a
+        (≥ 1; default 1, a sphere).
+    motor_offset : the motor's position on the cell body, eccentric angle from the rear pole
+        [deg] (0–180; default 0: at the pole).
     thermal : add thermal noise (Brownian forces and torques at ``kT``); implied by ``kT``.
     kT : thermal energy [pN·µm] (4.1e-3 at room temperature); giving it makes the run thermal.
     seed : seed of the random stream of a thermal run (non-negative integer).
@@ -88,7 +96,8 @@ def simulate(torque: float = 1.0, time: float = 0.3, *, save_every: float | None
     solver = SolverOptions(method=method or ("implicit" if thermal else "cvode"), rtol=rtol, dt=dt,
                            scheme=scheme, theta=theta, frame=frame)
     boundary = Boundary.from_flags(anchor=anchor, sphere_radius=sphere_radius, hook=hook,
-                                   hook_stiffness=hook_stiffness)
+                                   hook_stiffness=hook_stiffness, body_radius=body_radius,
+                                   body_aspect=body_aspect, motor_offset=motor_offset)
     sim = Simulator(model, Motor(torque, ramp_time=ramp_time), boundary, thermal=thermal,
                     seed=seed, solver=solver)
     time = positive("time", time, 1e6)

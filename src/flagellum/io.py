@@ -180,7 +180,14 @@ RECORD_FIELDS = {
     "torque": (lambda n: (), "f8"),
     "energy": (lambda n: (), "f8"),
     "frame_angle": (lambda n: (), "f8"),
+    "relative_motor_speed": (lambda n: (), "f8"),
+    "body_position": (lambda n: (3,), "f8"),
+    "body_axis": (lambda n: (3,), "f8"),
+    "body_angular_velocity": (lambda n: (3,), "f8"),
 }
+#: record fields that files of earlier versions lack: read as NaN
+#: (:meth:`flagellum.trajectory.Trajectory` fills ``relative_motor_speed`` from the others)
+LATER_FIELDS = ("relative_motor_speed", "body_position", "body_axis", "body_angular_velocity")
 
 #: the record fields in a file: name → (dimensions of one record, CF units, long_name); the
 #: first dimension of every field is ``time``. Units are UDUNITS strings (µm, pN, s, rad).
@@ -197,6 +204,12 @@ RECORD_META = {
     "torque": ((), "pN um", "motor torque applied (an output of a speed clamp or a motor law)"),
     "energy": ((), "pN um", "elastic energy of the filament"),
     "frame_angle": ((), "rad", "angle of the co-rotating computational frame about e_z"),
+    "relative_motor_speed": ((), "rad/s", "motor speed relative to the body: rotation rate of "
+                                          "the hook frame minus the body's, about the motor axis"),
+    "body_position": (("xyz",), "um", "centre of the cell body (anchored or centred body: bead 0)"),
+    "body_axis": (("xyz",), "1", "unit symmetry axis of the cell body, rear (motor) pole to "
+                                 "front (e_z without a cell body)"),
+    "body_angular_velocity": (("xyz",), "rad/s", "angular velocity of the cell body in the lab frame"),
 }
 #: the time coordinate's name in a file (``t`` in the records)
 TIME = "time"
@@ -414,14 +427,18 @@ def read_trajectory(path, records: bool = True) -> dict:
             old_layout = "t" in f and TIME not in f
             if records and (old_layout or TIME in f):
                 name = (lambda k: k) if sources or old_layout else _stored  # parts: plain names
+                have = sources[0] if sources else f
                 out.update({k: np.concatenate([s[name(k)][()] for s in sources or [f]])
-                            for k in RECORD_FIELDS})
+                            for k in RECORD_FIELDS if k not in LATER_FIELDS or name(k) in have})
             if records and "final_state" in f:
                 out["final_state"] = f["final_state"][()]
     except (OSError, KeyError, ValueError, TypeError) as exc:
         raise bad(exc) from None
     if "t" in out:
         m, n = len(out["t"]), np.shape(out["positions"])[1:2]
+        for name in LATER_FIELDS:  # a file of an earlier version
+            if name not in out and n:
+                out[name] = np.full((m,) + RECORD_FIELDS[name][0](n[0] - 1), np.nan)
         for name, (shape, _) in RECORD_FIELDS.items():
             if not n or out[name].shape != (m,) + shape(n[0] - 1) or out[name].dtype.kind != "f":
                 raise bad(f"dataset {name} has shape {out[name].shape}")

@@ -10,7 +10,10 @@
 * :class:`Boundary` — first bead anchored (``fixed``), attached to a load sphere of radius a
   moving along z with Stokes drag 6πηa (``sphere``); the hook as the paper's free universal
   joint (``free``), with bending stiffness k about the motor axis (``elastic``,
-  E = k(1 − cos ϑ) ≈ kϑ²/2), or clamped along the motor axis (``clamped``, k → ∞).
+  E = k(1 − cos ϑ) ≈ kϑ²/2), or clamped along the motor axis (``clamped``, k → ∞); a free
+  swimmer (``free``) with a body sphere centred on the first bead, or a whole cell: a rigid
+  sphere or prolate spheroid free in 3D with the motor on its surface
+  (:mod:`flagellum.hydro.body`).
 """
 
 from __future__ import annotations
@@ -311,12 +314,25 @@ class Motor:
 
 @dataclass(frozen=True)
 class Boundary:
-    """Boundary conditions at the motor end."""
+    """Boundary conditions at the motor end.
+
+    ``anchor``: ``"fixed"`` (bead 0 held), ``"sphere"`` (a load sphere of ``sphere_radius``
+    moving along e_z, paper Sec. 3.2) or ``"free"``: a force- and torque-free swimmer, either
+    with a body sphere of ``sphere_radius`` centred on bead 0 (its motor axis stays e_z), or,
+    with ``body_radius``, a whole cell: a rigid body free in 3D (a sphere, or a prolate
+    spheroid of equatorial semi-axis ``body_radius`` [µm] and polar semi-axis
+    ``body_aspect``·``body_radius``) with the motor on its surface at ``motor_offset`` [deg]
+    (eccentric angle from the rear pole) and the motor axis along the local normal, turning
+    with the body (:mod:`flagellum.hydro.body`).
+    """
 
     anchor: str = "fixed"
     sphere_radius: float | None = None
     hook: str = "free"
     hook_stiffness: float = 0.0  #: k [pN·µm] for ``hook="elastic"``
+    body_radius: float | None = None  #: cell body's (equatorial) radius a [µm]
+    body_aspect: float = 1.0  #: cell body's polar/equatorial semi-axis ratio p ≥ 1
+    motor_offset: float = 0.0  #: motor position on the cell body [deg from the rear pole]
 
     def __post_init__(self):
         check_choice("anchor", self.anchor, ("fixed", "sphere", "free"))
@@ -324,11 +340,26 @@ class Boundary:
         if self.anchor == "fixed" and self.sphere_radius is not None:  # never silently unused
             raise ParameterError("sphere_radius", self.sphere_radius,
                                  "given only with anchor = 'sphere' or 'free' (anchor is 'fixed')")
+        if self.body_radius is not None:
+            if self.anchor != "free":
+                raise ParameterError("body_radius", self.body_radius,
+                                     f"given only with anchor = 'free' (anchor is {self.anchor!r})")
+            if self.sphere_radius is not None:
+                raise ParameterError("sphere_radius", self.sphere_radius, "not together with "
+                                     "body_radius (a centred body sphere or a cell body, not both)")
+            object.__setattr__(self, "body_radius", positive("body_radius", self.body_radius, 1e3))
+        a = check_range("body_aspect", self.body_aspect, 1.0, 100.0, lo_open=False)
+        b = check_range("motor_offset", self.motor_offset, 0.0, 180.0, lo_open=False)
+        if self.body_radius is None and (a != 1.0 or b != 0.0):
+            raise ParameterError("body_aspect" if a != 1.0 else "motor_offset",
+                                 a if a != 1.0 else b, "given only with body_radius (a cell body)")
+        object.__setattr__(self, "body_aspect", a)
+        object.__setattr__(self, "motor_offset", b)
         if self.anchor == "sphere":
             if self.sphere_radius is None:
                 raise ParameterError("sphere_radius", None, "given (a number > 0) with anchor = 'sphere'")
             object.__setattr__(self, "sphere_radius", positive("sphere_radius", self.sphere_radius, 1e6))
-        if self.anchor == "free":  # a free swimmer; radius 0: the filament alone
+        if self.anchor == "free" and self.body_radius is None:  # centred body; 0: the filament alone
             a = 0.0 if self.sphere_radius is None else self.sphere_radius
             object.__setattr__(self, "sphere_radius", check_range("sphere_radius", a, 0.0, 1e6, lo_open=False))
         k = check_range("hook_stiffness", self.hook_stiffness, 0.0, 1e6, lo_open=False)
@@ -336,31 +367,53 @@ class Boundary:
             raise ParameterError("hook_stiffness", k, "> 0 with hook = 'elastic'")
         object.__setattr__(self, "hook_stiffness", k if self.hook == "elastic" else 0.0)
 
+    def to_dict(self) -> dict:
+        """The fields as a dict; without a cell body, its (default) fields are left out."""
+        from dataclasses import asdict
+
+        d = asdict(self)
+        if not self.is_cell:
+            for k in ("body_radius", "body_aspect", "motor_offset"):
+                d.pop(k)
+        return d
+
+    @property
+    def is_cell(self) -> bool:
+        """A whole cell: a rigid body free in 3D with the motor on its surface."""
+        return self.body_radius is not None
+
     @classmethod
     def from_flags(cls, anchor: str | None = None, sphere_radius: float | None = None,
-                   hook: str | None = None, hook_stiffness: float | None = None) -> "Boundary":
+                   hook: str | None = None, hook_stiffness: float | None = None,
+                   body_radius: float | None = None, body_aspect: float | None = None,
+                   motor_offset: float | None = None) -> "Boundary":
         """The boundary of the command-line flags and sweep values: an anchor not given is a
-        load sphere when ``sphere_radius`` is given (else fixed); a hook not given is elastic
-        when ``hook_stiffness`` k > 0 (else free). Given values are kept as they are, and a
-        value that the given kind would not use (a radius with a fixed anchor, k > 0 with a
-        free or clamped hook) is a :class:`ParameterError`."""
+        free cell when ``body_radius`` is given, a load sphere when ``sphere_radius`` is given
+        (else fixed); a hook not given is elastic when ``hook_stiffness`` k > 0 (else free).
+        Given values are kept as they are, and a value that the given kind would not use (a
+        radius with a fixed anchor, k > 0 with a free or clamped hook, a body aspect without
+        a body) is a :class:`ParameterError`."""
         k = 0.0 if hook_stiffness is None else hook_stiffness
         if hook not in (None, "elastic") and k != 0:  # a flag never silently unused
             raise ParameterError("hook_stiffness", k, f"given only with hook = 'elastic' "
                                                       f"(hook is {hook!r})")
         if anchor is None:
-            anchor = "fixed" if sphere_radius is None else "sphere"
+            anchor = "free" if body_radius is not None else "fixed" if sphere_radius is None else "sphere"
         if hook is None:
             hook = "elastic" if k else "free"
-        return cls(anchor=anchor, sphere_radius=sphere_radius, hook=hook, hook_stiffness=k)
+        return cls(anchor=anchor, sphere_radius=sphere_radius, hook=hook, hook_stiffness=k,
+                   body_radius=body_radius, body_aspect=1.0 if body_aspect is None else body_aspect,
+                   motor_offset=0.0 if motor_offset is None else motor_offset)
 
     def sphere_drag(self, viscosity: float) -> float:
-        """Stokes drag 6πηa of the load sphere or of a free swimmer's body [pN·s/µm]."""
-        return 6 * math.pi * viscosity * self.sphere_radius if self.anchor != "fixed" else 0.0
+        """Stokes drag 6πηa of the load sphere or of a free swimmer's centred body
+        [pN·s/µm] (0 for a cell body: its resistance is :mod:`flagellum.hydro.body`'s)."""
+        return 6 * math.pi * viscosity * self.sphere_radius if self.anchor != "fixed" and not self.is_cell else 0.0
 
     def body_rotation_rate(self, torque: float, viscosity: float) -> float:
-        """Counter-rotation of a free swimmer's body about the motor axis, −M/(8πηa³) [rad/s]:
-        the motor's reaction torque; a body centred on the hook feels no other torque."""
+        """Counter-rotation of a free swimmer's centred body about the motor axis,
+        −M/(8πηa³) [rad/s]: the motor's reaction torque; a body centred on the hook feels no
+        other torque (NaN without one; a cell body's rate is an output of the run)."""
         if self.anchor != "free" or not self.sphere_radius:
             return math.nan
         return -torque / (8 * math.pi * viscosity * self.sphere_radius ** 3)

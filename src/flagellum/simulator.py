@@ -33,6 +33,7 @@ from . import io
 from ._progress import progress_bar, show_progress
 from .errors import ParameterError, SimulationError
 from .helix import Helix
+from .hydro.body import matrix_rotvec, rotvec_matrix
 from .hydro.options import Hydrodynamics
 from .hydro.rft import pinned_helix, pinned_omega_per_torque
 from .integrate import ATOL_PER_RTOL
@@ -115,8 +116,27 @@ class State:
     frame_angle: float = 0.0
 
 
+def check_cell(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynamics,
+               thermal: bool, boundary: Boundary | None) -> None:
+    """What a cell body (``boundary.body_radius``) does not combine with yet: thermal noise
+    (the body's Brownian forces and torques are not implemented), the nonlocal mobility (the
+    body's Stokeslet and rotlet fields are not coupled to the filament) and the fixed-step
+    solver (its Newton iteration takes the banded Jacobian, which leaves out the body's
+    coupling)."""
+    if boundary is None or not boundary.is_cell:
+        return
+    if thermal:
+        raise ParameterError("thermal", True, "off with a cell body (--body-radius): its "
+                             "thermal noise is not implemented")
+    if not hydrodynamics.is_local:
+        raise ParameterError("hydrodynamics", hydrodynamics.model, "'rft' with a cell body "
+                             "(--body-radius): the body's flow field is not coupled to sbt")
+    if solver.method != "cvode":
+        raise ParameterError("method", solver.method, "'cvode' with a cell body (--body-radius)")
+
+
 def check_setup(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynamics,
-                thermal: bool, seed) -> None:
+                thermal: bool, seed, boundary: Boundary | None = None) -> None:
     """The checks of a :class:`Simulator`'s arguments that the dataclasses cannot make alone
     (also what a sweep checks of its points before the first runs)."""
     if thermal and params.fluid.kT <= 0:
@@ -126,6 +146,7 @@ def check_setup(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynam
                              "run (noise of the nonlocal mobility is not implemented)")
     if thermal and solver.method != "implicit":
         raise ParameterError("method", solver.method, "'implicit' for a thermal run")
+    check_cell(params, solver, hydrodynamics, thermal, boundary)
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
                              or not 0 <= seed < 2**63):  # an int64 attribute of the files
         raise ParameterError("seed", seed, "an integer in [0, 2**63 - 1]")
@@ -171,7 +192,7 @@ class Simulator:
         self.boundary = boundary or Boundary()
         self.solver = solver or SolverOptions(method="implicit" if thermal else "cvode")
         self.thermal = bool(thermal)
-        check_setup(self.params, self.solver, self.hydrodynamics, self.thermal, seed)
+        check_setup(self.params, self.solver, self.hydrodynamics, self.thermal, seed, self.boundary)
         self.seed = int(seed) if seed is not None else 0
         if self.thermal and self.motor.drive != "torque":
             raise ParameterError("drive", self.motor.drive, "'torque' for a thermal run")
@@ -216,7 +237,7 @@ class Simulator:
 
     def _place(self, state: State, t: float, omega_frame: float | None) -> None:
         n1 = self.model.n + 1
-        want = ((state_size(self.model.n),), (n1, 3), (n1, 3), (n1,))
+        want = ((self.model.state_size,), (n1, 3), (n1, 3), (n1,))
         try:
             arrays = [np.array(state.y, float), *(np.array(c, float) for c in state.charts)]
         except (AttributeError, TypeError, ValueError):
@@ -241,15 +262,17 @@ class Simulator:
         y, (ref_u, ref_e, ref_m) = self.y.copy(), self.model.charts()
         a = self.frame_angle
         y[:3] = _rotate_z(y[:3], a)
-        body = y[3:].reshape(-1, 4)
-        body[:, :3] = _rotate_z(body[:, :3], a)
+        beads = y[3:3 + 4 * (self.model.n + 1)].reshape(-1, 4)
+        beads[:, :3] = _rotate_z(beads[:, :3], a)
+        if self.model.cell:  # the body's orientation turned with the frame
+            y[-3:] = matrix_rotvec(_rotate_z(rotvec_matrix(y[-3:]).T, a).T)
         return State(y, (_rotate_z(ref_u, a), _rotate_z(ref_e, a), ref_m))
 
     # -- metadata ---------------------------------------------------------------------
     def metadata(self) -> dict:
         """The attributes of an output file: parameters, settings, provenance."""
         return {"params_toml": self.params.to_toml(), "spec": json.dumps(self.spec()),
-                "motor": json.dumps(asdict(self.motor)), "boundary": json.dumps(asdict(self.boundary)),
+                "motor": json.dumps(asdict(self.motor)), "boundary": json.dumps(self.boundary.to_dict()),
                 "solver": json.dumps(asdict(self.solver)), "thermal": self.thermal, "seed": self.seed,
                 "hydrodynamics": self.hydrodynamics.model,
                 "helix_radius": Helix.from_filament(self.params.filament).radius,
@@ -259,7 +282,7 @@ class Simulator:
     def spec(self) -> dict:
         """Everything needed to rebuild this simulator (JSON-serializable)."""
         return {"params": self.params.to_dict(), "motor": asdict(self.motor),
-                "boundary": asdict(self.boundary), "solver": asdict(self.solver),
+                "boundary": self.boundary.to_dict(), "solver": asdict(self.solver),
                 "thermal": self.thermal, "seed": self.seed,
                 "hydrodynamics": self.hydrodynamics.to_dict()}
 
@@ -289,11 +312,21 @@ class Simulator:
         rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         u = y[:3] / np.linalg.norm(y[:3])
         force = rot @ m.last_force
-        for k, v in (("t", t), ("positions", positions(y) @ rot.T), ("angles", angles(y)),
+        pos = positions(y) @ rot.T
+        if m.cell:
+            b = m.body_motion(t, y)
+            body = (rot @ b["position"], rot @ b["axis"], rot @ b["angular_velocity"])
+        else:  # the anchor, a load sphere or a centred body sphere (counter-rotating about e_z)
+            body = (pos[0], np.array([0.0, 0.0, 1.0]),
+                    np.array([0.0, 0.0, -m.body_rotation_per_torque * m.last_torque]))
+        for k, v in (("t", t), ("positions", pos), ("angles", angles(y)),
                      ("hook_tangent", rot @ u), ("thrust", force[2]), ("anchor_force", force),
                      ("motor_speed", m.last_motor_speed),
                      ("motor_angle", self._motor_angle()), ("torque", m.last_torque),
-                     ("energy", m.last_energy), ("frame_angle", self.frame_angle)):
+                     ("energy", m.last_energy), ("frame_angle", self.frame_angle),
+                     ("relative_motor_speed", m.last_relative_motor_speed),
+                     ("body_position", body[0]), ("body_axis", body[1]),
+                     ("body_angular_velocity", body[2])):
             buf[k].append(np.array(v, float))
 
     def _advance(self, stepper, t_target: float) -> np.ndarray:

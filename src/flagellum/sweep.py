@@ -61,7 +61,8 @@ VARIABLES: dict[str, str] = {
     "fallback": "str",  #: JSON of the fallback settings that produced the point ("" = none)
 }
 #: variables that files of older versions lack (filled in on resume)
-_OPTIONAL = {"fallback", "swimming_speed", "torque_mean", "motor_speed_mean"}
+_OPTIONAL = {"fallback", "swimming_speed", "torque_mean", "motor_speed_mean", "body_velocity",
+             "body_speed", "body_rotation_rate", "wobble_angle_deg"}
 #: what a fallback may change: solver settings only (the physics of a point stays fixed)
 FALLBACK_PARAMETERS = ("method", "rtol", "dt")
 _FILL = {"f8": math.nan, "i8": -1, "str": ""}
@@ -84,6 +85,10 @@ VARIABLE_ATTRS: dict[str, tuple[str | None, str]] = {
     "samples": ("1", "records in the averaging window"),
     "torque_mean": ("pN um", "mean motor torque applied (operating point)"),
     "motor_speed_mean": ("rad/s", "mean motor speed relative to the body (operating point)"),
+    "body_velocity": ("um/s", "net swimming speed of the body along its mean swimming direction"),
+    "body_speed": ("um/s", "mean speed of the body along its (helical) path"),
+    "body_rotation_rate": ("rad/s", "mean rotation rate of the body about its own axis"),
+    "wobble_angle_deg": ("degree", "mean angle between the body axis and the mean swimming direction"),
     "regime": (None, "regime of the run (flagellum.analysis.regimes)"),
     "steps": ("1", "integrator steps"),
     "wall_seconds": ("s", "wall-clock time of the point in its worker"),

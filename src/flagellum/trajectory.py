@@ -57,6 +57,17 @@ class Trajectory:
         the torque the drive takes, an output).
     energy : (n_t,) elastic energy [pN·µm].
     frame_angle : (n_t,) angle of the computational (co-rotating) frame about e_z [rad].
+    relative_motor_speed : (n_t,) motor speed relative to the body [rad/s]: the hook frame's
+        rotation rate minus the body's, about the motor axis (the speed a torque–speed law is
+        evaluated at). Anchored: ``motor_speed``; a centred body sphere: ``motor_speed`` +
+        M/(8πηa³); a cell body: (ω_hook − Ω)·m with its motor axis m.
+    body_position : (n_t, 3) centre of the cell body [µm] (its helical path); without a cell
+        body: bead 0 (the anchor, the load sphere's or the centred body's centre).
+    body_axis : (n_t, 3) unit symmetry axis of the cell body, from the rear (motor) pole to the
+        front (for a sphere: the body-fixed axis through the motor's pole position); e_z
+        without a cell body.
+    body_angular_velocity : (n_t, 3) angular velocity Ω of the body in the lab [rad/s]
+        (a centred body sphere: −M/(8πηa³) e_z; anchored: 0).
     meta : the run's metadata (parameters, solver, provenance:
         :meth:`flagellum.simulator.Simulator.metadata`).
     """
@@ -72,16 +83,27 @@ class Trajectory:
     torque: np.ndarray
     energy: np.ndarray
     frame_angle: np.ndarray
+    relative_motor_speed: np.ndarray | None = None
+    body_position: np.ndarray | None = None
+    body_axis: np.ndarray | None = None
+    body_angular_velocity: np.ndarray | None = None
     meta: dict = field(default_factory=dict)
 
     def __post_init__(self):
+        nt = len(np.asarray(self.t).reshape(-1))
+        for name in io.LATER_FIELDS:
+            if getattr(self, name) is None:
+                setattr(self, name, np.full((nt,) + io.RECORD_FIELDS[name][0](0), np.nan))
         for name in io.RECORD_FIELDS:
-            setattr(self, name, np.asarray(getattr(self, name)))
+            setattr(self, name, np.asarray(getattr(self, name), float if name in io.LATER_FIELDS else None))
+        if np.all(np.isnan(self.relative_motor_speed)) and nt:  # a file of an earlier version
+            self.relative_motor_speed = self.motor_speed + float(
+                self.meta.get("body_rotation_per_torque", 0.0)) * self.torque
 
     @classmethod
     def from_records(cls, records: dict, meta: dict) -> "Trajectory":
         """From a dict with (at least) the record fields, e.g. :func:`flagellum.io.read_trajectory`."""
-        return cls(**{k: records[k] for k in io.RECORD_FIELDS}, meta=meta)
+        return cls(**{k: records[k] for k in io.RECORD_FIELDS if k in records}, meta=meta)
 
     @property
     def records(self) -> dict:
@@ -131,14 +153,13 @@ class Trajectory:
         """
         return summarize_run(self.t, self.thrust, self.motor_angle, self.positions, self.energy,
                              self.meta.get("helix_radius", 0.2), t_from, self.torque,
-                             self.relative_motor_speed)
+                             self.relative_motor_speed, body=(self.body_position, self.body_axis,
+                                                              self.body_angular_velocity))
 
     @property
-    def relative_motor_speed(self) -> np.ndarray:
-        """(n_t,) motor speed relative to the body [rad/s]: ``motor_speed`` minus the body's
-        rotation rate about e_z (−M/(8πηa³) for a free swimmer with a body; 0 otherwise), the
-        speed a torque–speed law is evaluated at."""
-        return self.motor_speed + float(self.meta.get("body_rotation_per_torque", 0.0)) * self.torque
+    def body_rotation_rate(self) -> np.ndarray:
+        """(n_t,) the body's rotation rate about its own axis, Ω·``body_axis`` [rad/s]."""
+        return np.einsum("ij,ij->i", self.body_angular_velocity, self.body_axis)
 
 
 def open_trajectory(path: str | Path):

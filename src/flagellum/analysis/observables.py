@@ -85,16 +85,27 @@ class Summary:
     #: body [rad/s] (ω_hook·e_z minus the body's rate; the speed a motor law is evaluated at)
     torque_mean: float = math.nan
     motor_speed_mean: float = math.nan
+    #: the body's motion (a cell body; else the anchor or the centred body sphere):
+    #: net swimming speed |mean velocity of its centre| along the mean swimming direction
+    #: [µm/s], its mean path speed (between records) [µm/s], its mean rotation rate about its
+    #: own axis Ω·axis [rad/s], and the wobble angle: mean angle between its axis and the mean
+    #: swimming direction [deg] (NaN when it does not move)
+    body_velocity: float = math.nan
+    body_speed: float = math.nan
+    body_rotation_rate: float = math.nan
+    wobble_angle_deg: float = math.nan
 
     def to_dict(self) -> dict:
         return asdict(self)
 
 
 def summarize(t, thrust, motor_angle, positions, energy, helix_radius: float,
-              t_from: float | None = None, torque=None, motor_speed=None) -> Summary:
+              t_from: float | None = None, torque=None, motor_speed=None, body=None) -> Summary:
     """Averages over t ≥ t_from (default: the last half of the run); ω is the slope of the
     unwrapped ``motor_angle`` (rotation rate about the local helix axis at the motor).
-    ``torque`` and ``motor_speed`` (relative to the body) give the operating point."""
+    ``torque`` and ``motor_speed`` (relative to the body) give the operating point;
+    ``body`` = (centre (n_t, 3), axis (n_t, 3), angular velocity (n_t, 3)) its motion
+    (:func:`body_motion`)."""
     t = np.asarray(t, float)
     if t_from is None:
         t_from = t[0] + 0.5 * (t[-1] - t[0])
@@ -113,7 +124,30 @@ def summarize(t, thrust, motor_angle, positions, energy, helix_radius: float,
                    energy_final=float(np.asarray(energy)[-1]), centroid_offset=rho,
                    swimming_speed=_slope(t[sel], np.asarray(positions)[sel][:, 0, 2]),
                    t_from=float(t_from), t_end=float(t[-1]), samples=int(sel.sum()),
-                   torque_mean=_mean(torque, sel), motor_speed_mean=_mean(motor_speed, sel))
+                   torque_mean=_mean(torque, sel), motor_speed_mean=_mean(motor_speed, sel),
+                   **(body_motion(t[sel], *(np.asarray(b, float)[sel] for b in body))
+                      if body is not None else {}))
+
+
+def body_motion(t, position, axis, angular_velocity) -> dict:
+    """Swimming of a body over a window: ``body_velocity`` = |V̄| with V̄ the least-squares
+    velocity of its centre (the net speed along the mean swimming direction V̄/|V̄|),
+    ``body_speed`` = mean |Δx/Δt| between records (the speed along its helical path),
+    ``body_rotation_rate`` = mean Ω·axis, ``wobble_angle_deg`` = mean angle between the axis
+    and V̄/|V̄| (NaN when V̄ = 0)."""
+    out = dict(body_velocity=math.nan, body_speed=math.nan, body_rotation_rate=math.nan,
+               wobble_angle_deg=math.nan)
+    if len(t) < 2 or not np.all(np.isfinite(position)):
+        return out
+    v = np.polyfit(t - t[0], position, 1)[0]
+    speed = float(np.linalg.norm(v))
+    steps = np.linalg.norm(np.diff(position, axis=0), axis=1) / np.diff(t)
+    out.update(body_velocity=speed, body_speed=float(steps.mean()),
+               body_rotation_rate=float(np.mean(np.einsum("ij,ij->i", angular_velocity, axis))))
+    if speed > 1e-9:
+        cos = np.clip(axis @ (v / speed), -1.0, 1.0)
+        out["wobble_angle_deg"] = float(np.degrees(np.arccos(cos)).mean())
+    return out
 
 
 def _mean(x, sel) -> float:

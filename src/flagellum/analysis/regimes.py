@@ -298,9 +298,10 @@ class RunSummary(Summary):
 
 
 def summarize_run(t, thrust, motor_angle, positions, energy, helix_radius: float,
-                  t_from: float | None = None, torque=None, motor_speed=None) -> RunSummary:
+                  t_from: float | None = None, torque=None, motor_speed=None, body=None) -> RunSummary:
     """:func:`~flagellum.analysis.observables.summarize` plus :func:`assess` of the same window."""
-    s = summarize(t, thrust, motor_angle, positions, energy, helix_radius, t_from, torque, motor_speed)
+    s = summarize(t, thrust, motor_angle, positions, energy, helix_radius, t_from, torque, motor_speed,
+                  body)
     a = assess(t, thrust, positions, motor_angle, helix_radius, s.t_from)
     return RunSummary(**s.to_dict(), regime=a.regime, steady=a.steady, drifting=a.drifting,
                       regime_note=a.note)

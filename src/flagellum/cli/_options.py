@@ -174,8 +174,9 @@ def motor_from_cli(kwargs: dict) -> Motor:
 
 def boundary_options(anchor: bool):
     """``--sphere-radius``, ``--hook``, ``--hook-stiffness``, and with ``anchor`` also
-    ``--anchor`` (fixed, load sphere or free swimmer); without it the anchor is fixed, or a
-    load sphere when ``--sphere-radius`` is given."""
+    ``--anchor`` (fixed, load sphere or free swimmer) and the cell body (``--body-radius``,
+    ``--body-aspect``, ``--motor-offset``); without it the anchor is fixed, or a load sphere
+    when ``--sphere-radius`` is given."""
     if anchor:
         opts = [
             click.option("--anchor", type=click.Choice(["fixed", "sphere", "free"]),
@@ -184,7 +185,17 @@ def boundary_options(anchor: bool):
                               "(force- and torque-free swimmer with a body sphere) [default: "
                               "fixed, sphere with --sphere-radius]"),
             click.option("--sphere-radius", type=float, default=None,
-                         help="load sphere / body radius a [µm] (free: default 0, the filament alone)"),
+                         help="load sphere / centred body sphere radius a [µm] (free: default "
+                              "0, the filament alone)"),
+            click.option("--body-radius", type=float, default=None,
+                         help="cell body free in 3D with the motor on its surface: its "
+                              "(equatorial) radius a [µm] (implies --anchor free)"),
+            click.option("--body-aspect", type=float, default=None,
+                         help="cell body: prolate spheroid with polar semi-axis = aspect × "
+                              "radius (>= 1) [default: 1, a sphere]"),
+            click.option("--motor-offset", type=float, default=None,
+                         help="cell body: motor position, angle from the rear pole [deg] "
+                              "(0..180) [default: 0]"),
             click.option("--hook", type=click.Choice(["free", "elastic", "clamped"]), default=None,
                          help="hook: free joint (paper), elastic, clamped [default: free, "
                               "elastic with --hook-stiffness]"),
@@ -212,7 +223,10 @@ def boundary_from_cli(kwargs: dict) -> Boundary:
     """
     return Boundary.from_flags(anchor=kwargs.pop("anchor", None),
                                sphere_radius=kwargs.pop("sphere_radius"), hook=kwargs.pop("hook"),
-                               hook_stiffness=kwargs.pop("hook_stiffness"))
+                               hook_stiffness=kwargs.pop("hook_stiffness"),
+                               body_radius=kwargs.pop("body_radius", None),
+                               body_aspect=kwargs.pop("body_aspect", None),
+                               motor_offset=kwargs.pop("motor_offset", None))
 
 
 # -- solver -------------------------------------------------------------------------------

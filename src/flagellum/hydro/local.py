@@ -11,7 +11,9 @@ simulator's beads (:func:`flagellum.hydro.rft.bead_nodes`) all call these kernel
   tangent of their one bond).
 * Bead 0 moves according to its anchor: not at all (``FIXED``), along z only on a load
   sphere of drag ζ = 6πηa that adds to the bead's own axial friction (``AXIAL``, Sec. 3.3),
-  or freely with the isotropic drag ζ of a body sphere added (``FREE``).
+  or freely with the isotropic drag ζ of a body sphere added (``FREE``); on a cell body
+  (``CELL``) it is a point of the rigid body, which the rod kernels move as a whole
+  (:mod:`flagellum.hydro.body`), and its own friction is part of the body's.
 * A bond spins about its tangent with friction γR h; the hook frame turns with
   γR h t0 t0 + ½ γ⊥ h³ (1 − t0 t0) (rotation of a bond of length h about its end), and a
   clamped hook only about its tangent.
@@ -29,8 +31,9 @@ from numba import njit
 from .._jit import FASTMATH
 
 #: how bead 0 may move: with the filament (a free swimmer's body), along z only (load
-#: sphere), or not at all (anchored); the rod kernels use the same codes for the anchor
-FIXED, AXIAL, FREE = 0, 1, 2
+#: sphere), or not at all (anchored), or with a cell body; the rod kernels use the same
+#: codes for the anchor
+FIXED, AXIAL, FREE, CELL = 0, 1, 2, 3
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
@@ -49,8 +52,9 @@ def bead_node(T, i, n):
 @njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
 def bead_friction(T, i, n, h, gpar, gperp, anchor, zeta):
     """(tx, ty, tz, ζ∥, ζ⊥, mode) of bead i: friction ζ∥ along the unit tangent t and ζ⊥
-    across it, and how the bead moves (``FREE``, ``AXIAL``, ``FIXED``; beads i ≥ 1 are free).
-    For ``AXIAL`` (load sphere) ζ∥ is the friction along z: w (γ∥ t_z² + γ⊥ (1 − t_z²)) + ζ."""
+    across it, and how the bead moves (``FREE``, ``AXIAL``, ``FIXED``, ``CELL``; beads i ≥ 1
+    are free). For ``AXIAL`` (load sphere) ζ∥ is the friction along z: w (γ∥ t_z² + γ⊥ (1 − t_z²)) + ζ;
+    for ``CELL`` the bead's own friction, which the cell body's motion takes up."""
     tx, ty, tz, wf = bead_node(T, i, n)
     w = wf * h
     if i > 0:
@@ -59,13 +63,16 @@ def bead_friction(T, i, n, h, gpar, gperp, anchor, zeta):
         return tx, ty, tz, 0.0, 0.0, FIXED
     if anchor == AXIAL:
         return tx, ty, tz, w * (gpar * tz * tz + gperp * (1.0 - tz * tz)) + zeta, 0.0, AXIAL
+    if anchor == CELL:
+        return tx, ty, tz, w * gpar, w * gperp, CELL
     return tx, ty, tz, w * gpar + zeta, w * gperp + zeta, FREE
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
 def bead_velocity(fx, fy, fz, tx, ty, tz, zpar, zperp, mode):
-    """Velocity of a bead under the force f, for the friction of :func:`bead_friction`."""
-    if mode == FIXED:
+    """Velocity of a bead under the force f, for the friction of :func:`bead_friction` (0 on
+    a cell body: the body's motion sets it)."""
+    if mode == FIXED or mode == CELL:
         return 0.0, 0.0, 0.0
     if mode == AXIAL:
         return 0.0, 0.0, fz / zpar

@@ -6,6 +6,8 @@ State layout (bead by bead, so that the Jacobian is banded)::
 
 ``u0`` is the (unnormalized) tangent of the hook frame 0, ``θ0`` its material angle;
 ``r_i`` are the beads, ``θ_i`` (i ≥ 1) the material angle of bond i (bead i−1 → bead i).
+A cell body (anchor ``ANCHOR_CELL``) appends its orientation, a rotation vector φ (3 values,
+:mod:`flagellum.hydro.body`); bead 0 is then the motor point on the body's surface.
 
 Material frames. Frame i has tangent t_i (t_0 = u0/|u0|, t_i = (r_i − r_{i−1})/|…|) and a
 reference vector a1 = P(u_i → t_i) e_i obtained by parallel transport from a chart pole u_i
@@ -36,11 +38,13 @@ import numpy as np
 from numba import njit
 
 from .._jit import FASTMATH, atan2
+from ..hydro import body as B
 from ..hydro import local as L
 
 HOOK_FREE, HOOK_ELASTIC, HOOK_CLAMPED = 0, 1, 2
-#: how bead 0 moves: the drag kernels' codes (anchored, on a load sphere, free swimmer)
-ANCHOR_FIXED, ANCHOR_SPHERE, ANCHOR_FREE = L.FIXED, L.AXIAL, L.FREE
+#: how bead 0 moves: the drag kernels' codes (anchored, on a load sphere, free swimmer with a
+#: centred body sphere, on a cell body free in 3D)
+ANCHOR_FIXED, ANCHOR_SPHERE, ANCHOR_FREE, ANCHOR_CELL = L.FIXED, L.AXIAL, L.FREE, L.CELL
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
@@ -205,7 +209,8 @@ I_N, I_HOOK, I_ANCHOR, I_GEN, I_HYDRO, I_DRIVE, I_NLAW, I_NLAW_CW = range(8)
 #: motor torque; DRIVE_SPEED: the clamped motor speed relative to the body; DRIVE_LAW: the
 #: direction ±1 of a torque–speed law whose CCW and CW branches follow prm[P_LAW:] as
 #: [speeds, torques] of iprm[I_NLAW] and iprm[I_NLAW_CW] nodes. prm[P_BODY] = 1/(8πηa³):
-#: the body's counter-rotation per unit motor torque of a free swimmer (0 otherwise)
+#: the body's counter-rotation per unit motor torque of a free swimmer (0 otherwise). A cell
+#: body's parameters (:func:`flagellum.hydro.body.kernel_block`) follow the law's nodes.
 DRIVE_TORQUE, DRIVE_SPEED, DRIVE_LAW = 0, 1, 2
 #: iprm[I_HYDRO]: the bead mobility of :func:`rhs`. HYDRO_LOCAL: the local drag of
 #: :mod:`flagellum.hydro.local` alone (RFT); HYDRO_FROZEN: plus the frozen dense correction
@@ -272,7 +277,13 @@ def motor_torque(prm, iprm, w0, tz, zt, zp):
     torque and B = t_z²/zt + (1 − t_z²)/zp + prm[P_BODY] (tangent component t_z, friction zt
     about the tangent and zp across it; zp = 0: a clamped hook). So the clamp's torque
     (ω_c − w0)/B and the law's operating point are exact; NaN when B ≤ 0 (no operating point)."""
-    b = _hook_rate(tz, zt, zp) + prm[P_BODY]
+    return drive_torque(prm, iprm, w0, _hook_rate(tz, zt, zp) + prm[P_BODY])
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def drive_torque(prm, iprm, w0, b):
+    """Torque of a speed clamp or a law (iprm[I_DRIVE]) on the load line ω = w0 + b M of the
+    motor speed relative to the body (:func:`motor_torque`); NaN when b ≤ 0."""
     if not b > 0.0:
         return math.nan
     d = prm[P_TORQUE]
@@ -282,6 +293,163 @@ def motor_torque(prm, iprm, w0, tz, zt, zp):
     if d >= 0.0:
         return _law_torque(prm, P_LAW, n1, w0, b)
     return -_law_torque(prm, P_LAW + 2 * n1, iprm[I_NLAW_CW], -w0, b)
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def _solve2(G, r, size):
+    """Solve G x = r in place for the two columns of r (rows 0 … size−1; Gaussian
+    elimination with partial pivoting: G is the small symmetric positive definite
+    resistance of the cell, 6×6 or 7×7)."""
+    for k in range(size):
+        p = k
+        for i in range(k + 1, size):
+            if abs(G[i, k]) > abs(G[p, k]):
+                p = i
+        if p != k:
+            for j in range(size):
+                G[k, j], G[p, j] = G[p, j], G[k, j]
+            for j in range(2):
+                r[k, j], r[p, j] = r[p, j], r[k, j]
+        for i in range(k + 1, size):
+            f = G[i, k] / G[k, k]
+            for j in range(k, size):
+                G[i, j] -= f * G[k, j]
+            for j in range(2):
+                r[i, j] -= f * r[k, j]
+    for k in range(size - 1, -1, -1):
+        for j in range(2):
+            acc = r[k, j]
+            for i in range(k + 1, size):
+                acc -= G[k, i] * r[i, j]
+            r[k, j] = acc / G[k, k]
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el):
+    """Motion of a cell body (anchor ``ANCHOR_CELL``) and of the hook frame on it.
+
+    The body (centre X, orientation Q = exp([φ]×) from the state's last three values) carries
+    bead 0 at the motor point X + d and the motor axis m, both turning with it; its Stokes
+    resistance about the centre is diagonal along and across its axis
+    (:mod:`flagellum.hydro.body`), and bead 0's own friction ζ0 acts at d. Forces on the body:
+    the filament's force f0 on bead 0 (with its torque d × f0), the motor's reaction −M m and,
+    for an elastic hook E = k(1 + t0·m), the torque k t0 × m. The hook frame turns under
+    M m and the elastic torque τh on it (Eq. (12) with e_z → m); a clamped hook (t0 = −m)
+    turns with the body plus ω_r about m, and the two are solved together (the constraint
+    torque across m is internal). Both problems are linear in M: solved for M = 0 and M = 1,
+    the motor speed relative to the body is ω = w0 + b M, and a clamp's or a law's torque
+    follows from :func:`drive_torque`. Returns (torque, hook frame's ω (3), body's Ω (3),
+    body's velocity V (3), bead 0's velocity (3), m (3), rate ω_hook·m, relative motor speed).
+    Fills GT[0] with the hook term and returns the hook energy last."""
+    n = iprm[I_N]
+    h, gpar, gperp, grot = prm[P_H], prm[P_GPAR], prm[P_GPERP], prm[P_GROT]
+    off = P_LAW + 2 * (iprm[I_NLAW] + iprm[I_NLAW_CW])
+    ny = y.shape[0]
+    Q = np.empty((3, 3))
+    B.rotation_matrix(y[ny - 3], y[ny - 2], y[ny - 1], Q)
+    ax, d, m = np.empty(3), np.empty(3), np.empty(3)
+    for i in range(3):
+        ax[i] = Q[i, 0] * prm[off + 4] + Q[i, 1] * prm[off + 5] + Q[i, 2] * prm[off + 6]
+        d[i] = Q[i, 0] * prm[off + 7] + Q[i, 1] * prm[off + 8] + Q[i, 2] * prm[off + 9]
+        m[i] = Q[i, 0] * prm[off + 10] + Q[i, 1] * prm[off + 11] + Q[i, 2] * prm[off + 12]
+    t = T[0]
+    k = el * prm[P_HOOKK]  # E = k (1 + t0·m): the hook's own energy, here with the body's axis
+    e_hook = k * (1.0 + t[0] * m[0] + t[1] * m[1] + t[2] * m[2])
+    for i in range(3):
+        GT[0, i] += k * m[i]
+    qx, qy, qz = _cross(t[0], t[1], t[2], GT[0, 0], GT[0, 1], GT[0, 2])
+    tau = np.empty(3)  # elastic (and external) torque on the hook frame, without the motor
+    tau[0] = ext_hook[0] - (qx + GTH[0] * t[0])
+    tau[1] = ext_hook[1] - (qy + GTH[0] * t[1])
+    tau[2] = ext_hook[2] - (qz + GTH[0] * t[2])
+    tkx, tky, tkz = _cross(t[0], t[1], t[2], k * m[0], k * m[1], k * m[2])  # k t0 × m on the body
+    f0 = np.empty(3)
+    for i in range(3):
+        f0[i] = -DR[0, i]
+    t1x, t1y, t1z, z0p, z0n, _ = L.bead_friction(T, 0, n, h, gpar, gperp, ANCHOR_CELL, 0.0)
+    t1 = (t1x, t1y, t1z)
+    clamped = iprm[I_HOOK] == HOOK_CLAMPED
+    zt, zp = L.hook_friction(h, gperp, grot, False)  # the hook frame moves with the body
+    size = 7 if clamped else 6
+    G = np.zeros((size, size))
+    r = np.zeros((size, 2))
+    Z0 = np.empty((3, 3))
+    At = np.empty((3, 3))
+    Br = np.empty((3, 3))
+    Dx = np.zeros((3, 3))  # [d]×
+    Dx[0, 1], Dx[0, 2], Dx[1, 2] = -d[2], d[1], -d[0]
+    Dx[1, 0], Dx[2, 0], Dx[2, 1] = d[2], -d[1], d[0]
+    for i in range(3):
+        for j in range(3):
+            e = 1.0 if i == j else 0.0
+            Z0[i, j] = z0n * e + (z0p - z0n) * t1[i] * t1[j]
+            At[i, j] = prm[off + 1] * e + (prm[off] - prm[off + 1]) * ax[i] * ax[j]
+            Br[i, j] = prm[off + 3] * e + (prm[off + 2] - prm[off + 3]) * ax[i] * ax[j]
+    DZ = Dx @ Z0
+    ZD = Z0 @ Dx
+    DZD = DZ @ Dx
+    for i in range(3):
+        for j in range(3):
+            G[i, j] = At[i, j] + Z0[i, j]
+            G[i, 3 + j] = -ZD[i, j]
+            G[3 + i, j] = DZ[i, j]
+            G[3 + i, 3 + j] = Br[i, j] - DZD[i, j]
+    dfx, dfy, dfz = _cross(d[0], d[1], d[2], f0[0], f0[1], f0[2])
+    df = (dfx, dfy, dfz)
+    tk = (tkx, tky, tkz)
+    for i in range(3):
+        r[i, 0] = f0[i]
+    if clamped:  # body + hook frame: ω_h = Ω + ω_r m, t0 = −m
+        Zh = np.empty((3, 3))
+        for i in range(3):
+            for j in range(3):
+                Zh[i, j] = zp * (1.0 if i == j else 0.0) + (zt - zp) * m[i] * m[j]
+        zm = Zh @ m
+        for i in range(3):
+            for j in range(3):
+                G[3 + i, 3 + j] += Zh[i, j]
+            G[3 + i, 6] = zm[i]
+            G[6, 3 + i] = zm[i]
+            r[3 + i, 0] = df[i] + tau[i]
+        G[6, 6] = zm[0] * m[0] + zm[1] * m[1] + zm[2] * m[2]
+        r[6, 0] = tau[0] * m[0] + tau[1] * m[1] + tau[2] * m[2]
+        r[6, 1] = 1.0
+    else:
+        for i in range(3):
+            r[3 + i, 0] = df[i] + tk[i]
+            r[3 + i, 1] = -m[i]
+    _solve2(G, r, size)
+    wh0, wh1 = np.empty(3), np.empty(3)
+    if clamped:
+        w0, b = r[6, 0], r[6, 1]
+    else:  # the hook frame alone: [zt t t + zp (1 − t t)] ω = τh + M m
+        tt0 = tau[0] * t[0] + tau[1] * t[1] + tau[2] * t[2]
+        tm = m[0] * t[0] + m[1] * t[1] + m[2] * t[2]
+        for i in range(3):
+            wh0[i] = tt0 * t[i] / zt + (tau[i] - tt0 * t[i]) / zp
+            wh1[i] = tm * t[i] / zt + (m[i] - tm * t[i]) / zp
+        w0 = (wh0[0] - r[3, 0]) * m[0] + (wh0[1] - r[4, 0]) * m[1] + (wh0[2] - r[5, 0]) * m[2]
+        b = (wh1[0] - r[3, 1]) * m[0] + (wh1[1] - r[4, 1]) * m[1] + (wh1[2] - r[5, 1]) * m[2]
+    if iprm[I_DRIVE] == DRIVE_TORQUE:
+        torque = el * prm[P_TORQUE]
+    else:
+        torque = 0.0 if el == 0.0 else drive_torque(prm, iprm, w0, b)
+    out = np.empty(20)
+    out[0] = torque
+    for i in range(3):
+        om = r[3 + i, 0] + torque * r[3 + i, 1]
+        vc = r[i, 0] + torque * r[i, 1]
+        if clamped:
+            wh = om + (r[6, 0] + torque * r[6, 1]) * m[i]
+        else:
+            wh = wh0[i] + torque * wh1[i]
+        out[1 + i], out[4 + i], out[7 + i], out[13 + i] = wh, om, vc, m[i]
+    ox, oy, oz = _cross(out[4], out[5], out[6], d[0], d[1], d[2])
+    out[10], out[11], out[12] = out[7] + ox, out[8] + oy, out[9] + oz  # bead 0 = X + d
+    out[16] = out[1] * m[0] + out[2] * m[1] + out[3] * m[2]
+    out[17] = w0 + b * torque
+    out[18] = e_hook
+    return out
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
@@ -300,8 +468,12 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
     into physical ones with the chart's spin connection (used for the Itô drift).
     The motor torque is prm[P_TORQUE] or, for a speed clamp or a torque–speed law
     (iprm[I_DRIVE]), solved from the hook balance (:func:`motor_torque`).
-    Returns (energy, elastic force on bead 0 (3 values), motor speed ω_hook·e_z in the lab,
-    motor torque applied).
+    A cell body (iprm[I_ANCHOR] = ANCHOR_CELL) moves bead 0 and the hook frame with it
+    (:func:`cell_motion`) and its orientation φ (the state's last three values) at
+    φ̇ = J⁻¹(φ)(Ω − Ω_frame e_z) (:func:`flagellum.hydro.body.rotvec_rate`).
+    Returns (energy, elastic force on bead 0 (3 values), motor speed ω_hook·e_z in the lab
+    (ω_hook·m about a cell body's motor axis m), motor torque applied, motor speed relative
+    to the body, a cell body's motion (:func:`cell_motion`; else a placeholder)).
     """
     n = iprm[I_N]
     h = prm[P_H]
@@ -317,7 +489,8 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
         energy = 0.0
     else:
         energy = elastic(y, n, h, prm[P_A], prm[P_C], prm[P_K], prm[P_KAPPA], prm[P_TAU],
-                         prm[P_HOOKK], ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH, A1)
+                         prm[P_HOOKK] if iprm[I_ANCHOR] != ANCHOR_CELL else 0.0,
+                         ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH, A1)
         bead_gradient(n, h, prm[P_K], T, LEN, GT, DR)
     f0x, f0y, f0z = -DR[0, 0], -DR[0, 1], -DR[0, 2]
     for i in range(n + 1):
@@ -343,6 +516,12 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
         tx, ty, tz, zpar, zperp, mode = L.bead_friction(T, i, n, h, gpar, gperp, anchor, zeta)
         V[i, 0], V[i, 1], V[i, 2] = L.bead_velocity(-DR[i, 0], -DR[i, 1], -DR[i, 2], tx, ty, tz,
                                                     zpar, zperp, mode)
+    cell = anchor == ANCHOR_CELL
+    cm = V[0]  # (unused placeholder of the same type)
+    if cell:  # bead 0 and the hook frame move with the cell body
+        cm = cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el)
+        energy += cm[18]
+        V[0, 0], V[0, 1], V[0, 2] = cm[10], cm[11], cm[12]
     hydro = iprm[I_HYDRO]
     if hydro != HYDRO_LOCAL:  # nonlocal mobility: U = M_local(y) F + ΔM F, ΔM frozen
         _add_correction(DM, DR, V, n, NEAR_BEADS if hydro == HYDRO_BANDED else n)
@@ -361,37 +540,49 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
         dz = (ydot[o + 2] - ydot[p + 2]) * inv
         ydot[o + 3] = om - (S[i, 0] * dx + S[i, 1] * dy + S[i, 2] * dz)  # s ⟂ t
     # hook frame: torque balance on frame 0
-    tx, ty, tz = T[0, 0], T[0, 1], T[0, 2]
-    qx, qy, qz = _cross(tx, ty, tz, GT[0, 0], GT[0, 1], GT[0, 2])
-    mx = ext_hook[0] - (qx + GTH[0] * tx)
-    my = ext_hook[1] - (qy + GTH[0] * ty)
-    mz = ext_hook[2] + el * prm[P_TORQUE] - (qz + GTH[0] * tz)
-    mt = mx * tx + my * ty + mz * tz
-    zt, zp = L.hook_friction(h, gperp, grot, iprm[I_HOOK] == HOOK_CLAMPED)
-    wt = mt / zt
-    if zp == 0.0:  # clamped: turns about its tangent only
-        wx, wy, wz = wt * tx, wt * ty, wt * tz
+    if cell:
+        tx, ty, tz = T[0, 0], T[0, 1], T[0, 2]
+        torque, wx, wy, wz = cm[0], cm[1], cm[2], cm[3]
+        relative = cm[17]
     else:
-        ipp = 1.0 / zp
-        wx = wt * tx + ipp * (mx - mt * tx)
-        wy = wt * ty + ipp * (my - mt * ty)
-        wz = wt * tz + ipp * (mz - mt * tz)
-    torque = el * prm[P_TORQUE]
-    if iprm[I_DRIVE] != DRIVE_TORQUE:  # speed clamp or law: prm[P_TORQUE] is no torque; the
-        # rates are linear in the torque M e_z: take the drive value off, add the motor torque
-        dm = -torque
-        torque = 0.0 if el == 0.0 else motor_torque(prm, iprm, wz + dm * _hook_rate(tz, zt, zp), tz, zt, zp)
-        dm += torque
-        wt = dm * tz / zt
-        wx, wy, wz = wx + wt * tx, wy + wt * ty, wz + wt * tz
-        if zp != 0.0:
-            ipp = dm / zp
-            wx, wy, wz = wx - ipp * tz * tx, wy - ipp * tz * ty, wz + ipp * (1.0 - tz * tz)
+        tx, ty, tz = T[0, 0], T[0, 1], T[0, 2]
+        qx, qy, qz = _cross(tx, ty, tz, GT[0, 0], GT[0, 1], GT[0, 2])
+        mx = ext_hook[0] - (qx + GTH[0] * tx)
+        my = ext_hook[1] - (qy + GTH[0] * ty)
+        mz = ext_hook[2] + el * prm[P_TORQUE] - (qz + GTH[0] * tz)
+        mt = mx * tx + my * ty + mz * tz
+        zt, zp = L.hook_friction(h, gperp, grot, iprm[I_HOOK] == HOOK_CLAMPED)
+        wt = mt / zt
+        if zp == 0.0:  # clamped: turns about its tangent only
+            wx, wy, wz = wt * tx, wt * ty, wt * tz
+        else:
+            ipp = 1.0 / zp
+            wx = wt * tx + ipp * (mx - mt * tx)
+            wy = wt * ty + ipp * (my - mt * ty)
+            wz = wt * tz + ipp * (mz - mt * tz)
+        torque = el * prm[P_TORQUE]
+        if iprm[I_DRIVE] != DRIVE_TORQUE:  # speed clamp or law: prm[P_TORQUE] is no torque; the
+            # rates are linear in the torque M e_z: take the drive value off, add the motor torque
+            dm = -torque
+            torque = 0.0 if el == 0.0 else motor_torque(prm, iprm, wz + dm * _hook_rate(tz, zt, zp), tz, zt, zp)
+            dm += torque
+            wt = dm * tz / zt
+            wx, wy, wz = wx + wt * tx, wy + wt * ty, wz + wt * tz
+            if zp != 0.0:
+                ipp = dm / zp
+                wx, wy, wz = wx - ipp * tz * tx, wy - ipp * tz * ty, wz + ipp * (1.0 - tz * tz)
+        relative = wz + prm[P_BODY] * torque
     wz -= omega_frame
     ydot[0], ydot[1], ydot[2] = _cross(wx, wy, wz, y[0], y[1], y[2])
     dtx, dty, dtz = _cross(wx, wy, wz, tx, ty, tz)
     ydot[6] = wx * tx + wy * ty + wz * tz - (S[0, 0] * dtx + S[0, 1] * dty + S[0, 2] * dtz)
-    return energy, f0x, f0y, f0z, wz + omega_frame, torque
+    speed = wz + omega_frame
+    if cell:
+        ny = y.shape[0]
+        speed = cm[16]
+        ydot[ny - 3], ydot[ny - 2], ydot[ny - 1] = B.rotvec_rate(y[ny - 3], y[ny - 2], y[ny - 1],
+                                                                 cm[4], cm[5], cm[6] - omega_frame)
+    return energy, f0x, f0y, f0z, speed, torque, relative, cm
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..helix import DiscreteHelix, discrete_helix
+from ..hydro import body as body_model
 from ..hydro.dynamics import correction
 from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
@@ -26,25 +27,36 @@ JACOBIAN_BAND = (15, 11)
 #: the same with a nonlocal mobility: its near field (ΔM between neighbouring beads,
 #: :data:`~flagellum.rod.kernels.NEAR_BEADS`) couples one more bead each way
 NONLOCAL_JACOBIAN_BAND = (23, 19)
+#: with a cell body: its orientation (the state's last three values) couples to the first
+#: beads and the hook, outside any band; the stiff solvers keep this band as the
+#: preconditioner of a Krylov solve (CVODE does so for any band but the rod's)
+CELL_JACOBIAN_BAND = (16, 12)
 
 _HOOK = {"free": K.HOOK_FREE, "elastic": K.HOOK_ELASTIC, "clamped": K.HOOK_CLAMPED}
 _ANCHOR = {"fixed": K.ANCHOR_FIXED, "sphere": K.ANCHOR_SPHERE, "free": K.ANCHOR_FREE}
 _DRIVE = {"torque": K.DRIVE_TORQUE, "speed": K.DRIVE_SPEED, "law": K.DRIVE_LAW}
 
 
-def state_size(n: int) -> int:
-    return 3 + 4 * (n + 1)
+def state_size(n: int, cell: bool = False) -> int:
+    """Length of the state of n segments (+ 3: a cell body's orientation φ)."""
+    return 3 + 4 * (n + 1) + (3 if cell else 0)
+
+
+def _beads(y: np.ndarray) -> np.ndarray:
+    """(..., n+1, 4): (x, y, z, θ) per bead (a cell body's orientation, the last three
+    values, left out)."""
+    y = np.asarray(y)
+    k = (y.shape[-1] - 3) // 4
+    return y[..., 3:3 + 4 * k].reshape(y.shape[:-1] + (k, 4))
 
 
 def positions(y: np.ndarray) -> np.ndarray:
     """Bead positions (n+1, 3) of a state (or (..., n+1, 3) for a stack of states)."""
-    y = np.asarray(y)
-    return y[..., 3:].reshape(y.shape[:-1] + (-1, 4))[..., :3]
+    return _beads(y)[..., :3]
 
 
 def angles(y: np.ndarray) -> np.ndarray:
-    y = np.asarray(y)
-    return y[..., 3:].reshape(y.shape[:-1] + (-1, 4))[..., 3]
+    return _beads(y)[..., 3]
 
 
 class RodModel:
@@ -74,6 +86,7 @@ class RodModel:
         self.h = f.segment_length
         self.gammas = self.params.gammas
         self.sphere_drag = self.boundary.sphere_drag(self.params.fluid.viscosity)
+        self.cell = self.boundary.is_cell  #: a cell body free in 3D (:mod:`flagellum.hydro.body`)
         n1 = self.n + 1
         self.ref_u = np.zeros((n1, 3))
         self.ref_e = np.zeros((n1, 3))
@@ -89,21 +102,32 @@ class RodModel:
         self._colors = None  # (key, (color, lo, hi)) of jacobian_colors
         gp, gn, gr = self.gammas
         ccw, cw = self.motor.law_table()
+        b = self.boundary
+        cell = (body_model.kernel_block(b.body_radius, b.body_aspect, b.motor_offset,
+                                        self.params.fluid.viscosity) if self.cell else ())
         self.prm = np.array([self.h, f.bend_rigidity, f.twist_rigidity, f.stretch_modulus,
                              f.kappa0, f.torsion, self.boundary.hook_stiffness,
                              self.sphere_drag, gp, gn, gr, self.motor(0.0), self.omega_frame, 1.0,
-                             self.body_rotation_per_torque, *ccw, *cw])
-        self.iprm = np.array([self.n, _HOOK[self.boundary.hook], _ANCHOR[self.boundary.anchor], 0,
+                             self.body_rotation_per_torque, *ccw, *cw, *cell])
+        anchor = K.ANCHOR_CELL if self.cell else _ANCHOR[self.boundary.anchor]
+        self.iprm = np.array([self.n, _HOOK[self.boundary.hook], anchor, 0,
                               K.HYDRO_FROZEN if self._nonlocal else K.HYDRO_LOCAL,
                               _DRIVE[self.motor.drive], len(ccw) // 2, len(cw) // 2], dtype=np.int64)
         self.last_torque = self.prm[K.P_TORQUE] if self.motor.drive == "torque" else 0.0
+        self.last_relative_motor_speed = 0.0  #: motor speed relative to the body at the last rhs call
+
+    @property
+    def state_size(self) -> int:
+        return state_size(self.n, self.cell)
 
     # -- state -----------------------------------------------------------------------
     def initial_state(self, helix: DiscreteHelix | None = None) -> np.ndarray:
         """State of the stress-free discrete helix (bead 0 at the origin, axis along −z).
 
         Sets the charts to the helix' own frames, so all material angles start at 0. With a
-        clamped hook, the whole helix is turned so that its hook frame points along −z.
+        clamped hook, the whole helix is turned so that its hook frame points along −z. A cell
+        body starts at the identity orientation (its motor axis along e_z, the body on the
+        +z side of the motor).
         """
         dh = helix or discrete_helix(self.params.filament)
         pos, frames = dh.positions.copy(), dh.frames.copy()
@@ -113,10 +137,9 @@ class RodModel:
             rot = rotation_between(frames[0][:, 2], np.array([0.0, 0.0, -1.0]))
             pos = pos @ rot.T
             frames = np.einsum("ij,njk->nik", rot, frames)
-        y = np.zeros(state_size(self.n))
+        y = np.zeros(self.state_size)
         y[:3] = frames[0][:, 2]
-        body = y[3:].reshape(-1, 4)
-        body[:, :3] = pos
+        _beads(y)[:, :3] = pos
         self.ref_u[:] = frames[:, :, 2]
         self.ref_e[:] = frames[:, :, 0]
         self.update_reference_twists(y)
@@ -133,13 +156,16 @@ class RodModel:
         """Move chart poles that a tangent approaches the singularity of (t·u < threshold).
 
         The new pole is the current tangent and the new reference vector the current
-        reference a1, so the material frames and the state are unchanged.
+        reference a1, so the material frames and the state are unchanged. A cell body's
+        orientation φ is replaced (in ``y``) by the same rotation with |φ| ≤ π once |φ| > π
+        (:func:`flagellum.hydro.body.wrap_rotvec`); that counts as a change too.
         """
+        wrapped = self.cell and body_model.wrap_rotvec(y[-3:])
         self.update_reference_twists(y)
         w = self._fill_frames(y)
         bad = np.einsum("ij,ij->i", w.T, self.ref_u) < threshold
         if not bad.any():
-            return False
+            return bool(wrapped)
         self.ref_u[bad] = w.T[bad]
         self.ref_e[bad] = w.A1[bad]
         return True
@@ -179,6 +205,8 @@ class RodModel:
     @property
     def jacobian_band(self) -> tuple[int, int]:
         """(lower, upper) bandwidth of the Jacobian the stiff solvers use for this model."""
+        if self.cell:
+            return CELL_JACOBIAN_BAND
         return NONLOCAL_JACOBIAN_BAND if self._nonlocal else JACOBIAN_BAND
 
     def jacobian_colors(self, kl: int, ku: int):
@@ -188,7 +216,7 @@ class RodModel:
         zero gives an exactly zero difference), coloured with as few colours as possible."""
         key = (kl, ku)
         if self._colors is None or self._colors[0] != key:
-            ny = state_size(self.n)
+            ny = self.state_size
             rng = np.random.default_rng(12345)
             prm = self.prm.copy()
             prm[K.P_TORQUE], prm[K.P_OMEGA] = 1.0, 300.0
@@ -250,6 +278,9 @@ class RodModel:
                     self._zm if noise_m is None else noise_m, self._zh, self._ws)
         self.last_force[:] = res[1:4]
         self.last_energy, self.last_motor_speed, self.last_torque = res[0], res[4], res[5]
+        self.last_relative_motor_speed = res[6]
+        if self.cell:
+            self.last_cell = res[7]
         if self._solved_drive and not math.isfinite(self.last_torque):
             raise SimulationError(f"motor drive {self.motor.drive!r}: no operating point at "
                                   f"t = {t:.6g} s (the hook cannot turn about the motor axis)")
@@ -264,11 +295,25 @@ class RodModel:
             return 0.0
         return 1.0 / (8 * math.pi * self.params.fluid.viscosity * b.sphere_radius ** 3)
 
-    @property
-    def last_relative_motor_speed(self) -> float:
-        """Motor speed relative to the body at the last :meth:`rhs` call [rad/s]: the hook
-        frame's rate about e_z minus the body's (−M/(8πηa³) for a free swimmer)."""
-        return self.last_motor_speed + self.body_rotation_per_torque * self.last_torque
+    def body_motion(self, t: float, y: np.ndarray) -> dict:
+        """A cell body's state and motion at time t, state ``y`` (computational frame; lab
+        velocities):
+        ``position`` of its centre [µm], unit ``axis``, ``motor_axis`` m and ``offset`` d
+        (centre → motor point, bead 0) [µm], ``orientation`` Q (3, 3), ``angular_velocity``
+        Ω [rad/s], ``velocity`` of the centre [µm/s], the hook frame's ``hook_rate`` ω_hook·m
+        and the motor speed ``relative`` to the body [rad/s], the motor ``torque`` [pN·µm]."""
+        if not self.cell:
+            raise ValueError("body_motion needs a cell body")
+        self.rhs(t, y)
+        cm = self.last_cell
+        b = self.boundary
+        g = body_model.body_geometry(b.body_radius, b.body_aspect, b.motor_offset)
+        q = body_model.rotvec_matrix(y[-3:])
+        d = q @ g.offset
+        return {"position": positions(y)[0] - d, "axis": q @ g.axis, "motor_axis": q @ g.motor_axis,
+                "offset": d, "orientation": q, "angular_velocity": cm[4:7].copy(),
+                "velocity": cm[7:10].copy(), "hook_rate": float(cm[16]),
+                "relative": float(cm[17]), "torque": float(cm[0])}
 
     def bead_force(self, t: float, y: np.ndarray) -> np.ndarray:
         """Elastic force on bead 0 (the anchor) at state y."""

@@ -340,7 +340,7 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el):
     the motor speed relative to the body is ω = w0 + b M, and a clamp's or a law's torque
     follows from :func:`drive_torque`. Returns (torque, hook frame's ω (3), body's Ω (3),
     body's velocity V (3), bead 0's velocity (3), m (3), rate ω_hook·m, relative motor speed).
-    Fills GT[0] with the hook term and returns the hook energy last."""
+    Adds the hook term with m to GT[0]; out[18] is the change of the hook energy."""
     n = iprm[I_N]
     h, gpar, gperp, grot = prm[P_H], prm[P_GPAR], prm[P_GPERP], prm[P_GROT]
     off = P_LAW + 2 * (iprm[I_NLAW] + iprm[I_NLAW_CW])
@@ -353,8 +353,11 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el):
         d[i] = Q[i, 0] * prm[off + 7] + Q[i, 1] * prm[off + 8] + Q[i, 2] * prm[off + 9]
         m[i] = Q[i, 0] * prm[off + 10] + Q[i, 1] * prm[off + 11] + Q[i, 2] * prm[off + 12]
     t = T[0]
-    k = el * prm[P_HOOKK]  # E = k (1 + t0·m): the hook's own energy, here with the body's axis
-    e_hook = k * (1.0 + t[0] * m[0] + t[1] * m[1] + t[2] * m[2])
+    # the hook's energy E = k (1 + t0·m) with the body's axis m in place of the e_z of
+    # :func:`elastic` (whose term is taken off again here: elastic scaled by el in GT)
+    k = el * prm[P_HOOKK]
+    e_hook = prm[P_HOOKK] * (t[0] * m[0] + t[1] * m[1] + t[2] * m[2] - t[2]) if el != 0.0 else 0.0
+    GT[0, 2] -= k
     for i in range(3):
         GT[0, i] += k * m[i]
     qx, qy, qz = _cross(t[0], t[1], t[2], GT[0, 0], GT[0, 1], GT[0, 2])
@@ -489,8 +492,7 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
         energy = 0.0
     else:
         energy = elastic(y, n, h, prm[P_A], prm[P_C], prm[P_K], prm[P_KAPPA], prm[P_TAU],
-                         prm[P_HOOKK] if iprm[I_ANCHOR] != ANCHOR_CELL else 0.0,
-                         ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH, A1)
+                         prm[P_HOOKK], ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH, A1)
         bead_gradient(n, h, prm[P_K], T, LEN, GT, DR)
     f0x, f0y, f0z = -DR[0, 0], -DR[0, 1], -DR[0, 2]
     for i in range(n + 1):
@@ -540,38 +542,36 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
         dz = (ydot[o + 2] - ydot[p + 2]) * inv
         ydot[o + 3] = om - (S[i, 0] * dx + S[i, 1] * dy + S[i, 2] * dz)  # s ⟂ t
     # hook frame: torque balance on frame 0
-    if cell:
-        tx, ty, tz = T[0, 0], T[0, 1], T[0, 2]
+    tx, ty, tz = T[0, 0], T[0, 1], T[0, 2]
+    qx, qy, qz = _cross(tx, ty, tz, GT[0, 0], GT[0, 1], GT[0, 2])
+    mx = ext_hook[0] - (qx + GTH[0] * tx)
+    my = ext_hook[1] - (qy + GTH[0] * ty)
+    mz = ext_hook[2] + el * prm[P_TORQUE] - (qz + GTH[0] * tz)
+    mt = mx * tx + my * ty + mz * tz
+    zt, zp = L.hook_friction(h, gperp, grot, iprm[I_HOOK] == HOOK_CLAMPED)
+    wt = mt / zt
+    if zp == 0.0:  # clamped: turns about its tangent only
+        wx, wy, wz = wt * tx, wt * ty, wt * tz
+    else:
+        ipp = 1.0 / zp
+        wx = wt * tx + ipp * (mx - mt * tx)
+        wy = wt * ty + ipp * (my - mt * ty)
+        wz = wt * tz + ipp * (mz - mt * tz)
+    torque = el * prm[P_TORQUE]
+    if iprm[I_DRIVE] != DRIVE_TORQUE:  # speed clamp or law: prm[P_TORQUE] is no torque; the
+        # rates are linear in the torque M e_z: take the drive value off, add the motor torque
+        dm = -torque
+        torque = 0.0 if el == 0.0 else motor_torque(prm, iprm, wz + dm * _hook_rate(tz, zt, zp), tz, zt, zp)
+        dm += torque
+        wt = dm * tz / zt
+        wx, wy, wz = wx + wt * tx, wy + wt * ty, wz + wt * tz
+        if zp != 0.0:
+            ipp = dm / zp
+            wx, wy, wz = wx - ipp * tz * tx, wy - ipp * tz * ty, wz + ipp * (1.0 - tz * tz)
+    relative = wz + prm[P_BODY] * torque
+    if cell:  # the cell's hook frame (cell_motion) replaces the rod's
         torque, wx, wy, wz = cm[0], cm[1], cm[2], cm[3]
         relative = cm[17]
-    else:
-        tx, ty, tz = T[0, 0], T[0, 1], T[0, 2]
-        qx, qy, qz = _cross(tx, ty, tz, GT[0, 0], GT[0, 1], GT[0, 2])
-        mx = ext_hook[0] - (qx + GTH[0] * tx)
-        my = ext_hook[1] - (qy + GTH[0] * ty)
-        mz = ext_hook[2] + el * prm[P_TORQUE] - (qz + GTH[0] * tz)
-        mt = mx * tx + my * ty + mz * tz
-        zt, zp = L.hook_friction(h, gperp, grot, iprm[I_HOOK] == HOOK_CLAMPED)
-        wt = mt / zt
-        if zp == 0.0:  # clamped: turns about its tangent only
-            wx, wy, wz = wt * tx, wt * ty, wt * tz
-        else:
-            ipp = 1.0 / zp
-            wx = wt * tx + ipp * (mx - mt * tx)
-            wy = wt * ty + ipp * (my - mt * ty)
-            wz = wt * tz + ipp * (mz - mt * tz)
-        torque = el * prm[P_TORQUE]
-        if iprm[I_DRIVE] != DRIVE_TORQUE:  # speed clamp or law: prm[P_TORQUE] is no torque; the
-            # rates are linear in the torque M e_z: take the drive value off, add the motor torque
-            dm = -torque
-            torque = 0.0 if el == 0.0 else motor_torque(prm, iprm, wz + dm * _hook_rate(tz, zt, zp), tz, zt, zp)
-            dm += torque
-            wt = dm * tz / zt
-            wx, wy, wz = wx + wt * tx, wy + wt * ty, wz + wt * tz
-            if zp != 0.0:
-                ipp = dm / zp
-                wx, wy, wz = wx - ipp * tz * tx, wy - ipp * tz * ty, wz + ipp * (1.0 - tz * tz)
-        relative = wz + prm[P_BODY] * torque
     wz -= omega_frame
     ydot[0], ydot[1], ydot[2] = _cross(wx, wy, wz, y[0], y[1], y[2])
     dtx, dty, dtz = _cross(wx, wy, wz, tx, ty, tz)

@@ -184,10 +184,12 @@ RECORD_FIELDS = {
     "body_position": (lambda n: (3,), "f8"),
     "body_axis": (lambda n: (3,), "f8"),
     "body_angular_velocity": (lambda n: (3,), "f8"),
+    "body_orientation": (lambda n: (3,), "f8"),
 }
 #: record fields that files of earlier versions lack: read as NaN
 #: (:meth:`flagellum.trajectory.Trajectory` fills ``relative_motor_speed`` from the others)
-LATER_FIELDS = ("relative_motor_speed", "body_position", "body_axis", "body_angular_velocity")
+LATER_FIELDS = ("relative_motor_speed", "body_position", "body_axis", "body_angular_velocity",
+                "body_orientation")
 
 #: the record fields in a file: name → (dimensions of one record, CF units, long_name); the
 #: first dimension of every field is ``time``. Units are UDUNITS strings (µm, pN, s, rad).
@@ -210,6 +212,8 @@ RECORD_META = {
     "body_axis": (("xyz",), "1", "unit symmetry axis of the cell body, rear (motor) pole to "
                                  "front (e_z without a cell body)"),
     "body_angular_velocity": (("xyz",), "rad/s", "angular velocity of the cell body in the lab frame"),
+    "body_orientation": (("xyz",), "rad", "orientation of the cell body: rotation vector (|.| <= pi) "
+                                          "from its start, motor axis along e_z (0 without a cell body)"),
 }
 #: the time coordinate's name in a file (``t`` in the records)
 TIME = "time"

@@ -315,10 +315,11 @@ class Simulator:
         pos = positions(y) @ rot.T
         if m.cell:
             b = m.body_motion(t, y)
-            body = (rot @ b["position"], rot @ b["axis"], rot @ b["angular_velocity"])
+            body = (rot @ b["position"], rot @ b["axis"], rot @ b["angular_velocity"],
+                    matrix_rotvec(rot @ b["orientation"]))
         else:  # the anchor, a load sphere or a centred body sphere (counter-rotating about e_z)
             body = (pos[0], np.array([0.0, 0.0, 1.0]),
-                    np.array([0.0, 0.0, -m.body_rotation_per_torque * m.last_torque]))
+                    np.array([0.0, 0.0, -m.body_rotation_per_torque * m.last_torque]), np.zeros(3))
         for k, v in (("t", t), ("positions", pos), ("angles", angles(y)),
                      ("hook_tangent", rot @ u), ("thrust", force[2]), ("anchor_force", force),
                      ("motor_speed", m.last_motor_speed),
@@ -326,7 +327,7 @@ class Simulator:
                      ("energy", m.last_energy), ("frame_angle", self.frame_angle),
                      ("relative_motor_speed", m.last_relative_motor_speed),
                      ("body_position", body[0]), ("body_axis", body[1]),
-                     ("body_angular_velocity", body[2])):
+                     ("body_angular_velocity", body[2]), ("body_orientation", body[3])):
             buf[k].append(np.array(v, float))
 
     def _advance(self, stepper, t_target: float) -> np.ndarray:

@@ -68,6 +68,9 @@ class Trajectory:
         without a cell body.
     body_angular_velocity : (n_t, 3) angular velocity Ω of the body in the lab [rad/s]
         (a centred body sphere: −M/(8πηa³) e_z; anchored: 0).
+    body_orientation : (n_t, 3) the cell body's orientation [rad]: the rotation vector
+        (|φ| ≤ π) that turns it from its start (motor axis along e_z) to now, lab frame
+        (0 without a cell body); with ``body_position`` the body's whole rigid motion.
     meta : the run's metadata (parameters, solver, provenance:
         :meth:`flagellum.simulator.Simulator.metadata`).
     """
@@ -87,6 +90,7 @@ class Trajectory:
     body_position: np.ndarray | None = None
     body_axis: np.ndarray | None = None
     body_angular_velocity: np.ndarray | None = None
+    body_orientation: np.ndarray | None = None
     meta: dict = field(default_factory=dict)
 
     def __post_init__(self):

@@ -160,11 +160,21 @@ def rotvec_matrix(phi) -> np.ndarray:
 
 
 def matrix_rotvec(rot: np.ndarray) -> np.ndarray:
-    """The rotation vector φ with |φ| ≤ π of a rotation matrix."""
-    from ..helix import axis_angle
-
-    axis, angle = axis_angle(np.asarray(rot, float))
-    return np.asarray(axis, float) * angle
+    """The rotation vector φ with |φ| ≤ π of a rotation matrix (near π from the symmetric
+    part, where the antisymmetric one vanishes)."""
+    r = np.asarray(rot, float)
+    angle = math.acos(max(-1.0, min(1.0, (np.trace(r) - 1) / 2)))
+    w = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+    if angle < 1e-6:
+        return 0.5 * w
+    if angle < math.pi - 1e-3:
+        return w * (angle / (2 * math.sin(angle)))
+    s = 0.5 * (r + r.T) - math.cos(angle) * np.eye(3)  # (1 − cos θ) n nᵀ
+    k = int(np.argmax(np.diag(s)))
+    n = s[:, k] / math.sqrt(s[k, k] * (1.0 - math.cos(angle)))
+    if n @ w < 0:
+        n = -n
+    return n * angle
 
 
 def wrap_rotvec(phi: np.ndarray) -> bool:

@@ -309,13 +309,9 @@ class Params:
 
 def read_toml(path: str | Path) -> dict:
     """Read a TOML file, turning every failure into a one-line :class:`ParameterError`."""
-    from .io import MAX_CONFIG_BYTES, input_file
+    from .io import read_text
 
-    input_file(path, "config", MAX_CONFIG_BYTES)
-    try:
-        text = Path(path).read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ParameterError("config", str(path), f"a readable TOML file ({exc.__class__.__name__})")
+    text = read_text(path, "config")
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -168,6 +168,22 @@ def record_bytes(n: int) -> int:
     return 8 * sum(int(np.prod(shape(n))) for shape, _ in io.RECORD_FIELDS.values())
 
 
+def checkpoint_digest(arrays: dict, attrs: dict) -> str:
+    """SHA-256 of a checkpoint's datasets (name, dtype, shape, bytes) and attributes (as
+    JSON), stored in it, so that a damaged or edited checkpoint is refused on resume instead
+    of handing the simulator a state it cannot use."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for k in sorted(arrays):
+        a = np.ascontiguousarray(arrays[k])
+        h.update(f"{k}|{a.dtype.str}|{a.shape}|".encode())
+        h.update(a.tobytes())
+    plain = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in attrs.items()}
+    h.update(json.dumps(plain, sort_keys=True, default=str).encode())
+    return h.hexdigest()
+
+
 class OutputError(SimulationError):
     """An output file could not be written (disk full, …)."""
 
@@ -248,14 +264,13 @@ class RunFiles:
     def write_checkpoint(self, arrays: dict, attrs: dict) -> None:
         """Atomically replace the checkpoint by ``arrays`` (datasets) and ``attrs`` (plus
         ``n_parts``)."""
-        import h5py
-
+        attrs = {**attrs, "n_parts": self.n_parts, "parts": json.dumps(self.digests[:self.n_parts])}
+        arrays = {k: np.asarray(v) for k, v in arrays.items()}
         with writing(self.path), io.atomic_path(self.checkpoint) as tmp:
-            with h5py.File(tmp, "w") as f:
+            with io.new_hdf5(tmp) as f:
                 for k, v in arrays.items():
                     f[k] = v
-                f.attrs.update({**attrs, "n_parts": self.n_parts,
-                                "parts": json.dumps(self.digests[:self.n_parts])})
+                f.attrs.update({**attrs, "digest": checkpoint_digest(arrays, attrs)})
 
     def finish(self, tail: dict, final_state, status: str, **attrs) -> None:
         """Write the main file from the parts and the records in ``tail`` (atomically)."""
@@ -289,18 +304,22 @@ class RunFiles:
             return None
         with h5py.File(self.checkpoint, "r") as f:
             arrays, attrs = {k: f[k][()] for k in f}, dict(f.attrs)
+        digest = attrs.pop("digest", None)  # (checkpoints of earlier versions have none)
+        if digest is not None and str(digest) != checkpoint_digest(arrays, attrs):
+            raise self._damaged(f"{self.checkpoint.name} has changed since it was written")
         self.verify(attrs)
         return arrays, attrs
+
+    def _damaged(self, why: str):
+        from .errors import ParameterError
+
+        return ParameterError("resume", str(self.path), f"an undamaged run to continue ({why}; "
+                              "start it again with --overwrite)")
 
     def verify(self, ckpt: dict) -> None:
         """Refuse a checkpoint (attributes ``ckpt``) that does not fit the main file and the
         parts: another run's parameters, a part missing or changed, records lost or added."""
-        from .errors import ParameterError
-
-        def damaged(why):
-            return ParameterError("resume", str(self.path), f"an undamaged run to continue ({why}; "
-                                  "start it again with --overwrite)")
-
+        damaged = self._damaged
         main = self.attrs()
         if "spec" in main and str(ckpt.get("spec")) != str(main["spec"]):
             raise damaged(f"the parameters of {self.checkpoint.name} differ from the file's")

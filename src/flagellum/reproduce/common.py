@@ -87,10 +87,10 @@ def write_h5(path: Path, groups: dict, attrs: dict | None = None) -> Path:
     """``{group: {name: array}}`` as an HDF5 file (the same data as the CSV files)."""
     import h5py
 
-    from ..io import atomic_path
+    from ..io import atomic_path, new_hdf5
 
     with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as f:
+        with new_hdf5(tmp) as f:
             for k, v in (attrs or {}).items():
                 f.attrs[k] = v
             for g, data in groups.items():

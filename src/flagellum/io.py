@@ -142,14 +142,24 @@ class _WriteGuard:
         self._fh, self.error = fh, None
 
     def write(self, data):
-        if self.error is None:
+        view = memoryview(data).cast("B")
+        done = 0
+        while self.error is None and done < len(view):  # (an unbuffered write may be partial)
             try:
-                return self._fh.write(data)
+                done += self._fh.write(view[done:])
             except OSError as exc:
                 self.error = exc
-        return len(memoryview(data).cast("B"))
+        return len(view)
 
-    def __getattr__(self, name):  # read, readinto, seek, tell, truncate, flush
+    def truncate(self, size=None):
+        if self.error is None:
+            try:
+                return self._fh.truncate(size)
+            except OSError as exc:
+                self.error = exc
+        return size
+
+    def __getattr__(self, name):  # read, readinto, seek, tell, flush
         return getattr(self._fh, name)
 
 
@@ -160,7 +170,7 @@ def new_hdf5(path):
     the ``OSError`` it was, after HDF5 has closed the file, never inside HDF5."""
     import h5py
 
-    with open(path, "w+b") as fh:
+    with open(path, "w+b", buffering=0) as fh:  # unbuffered: errors come from write, nowhere else
         guard = _WriteGuard(fh)
         try:
             with h5py.File(guard, "w") as f:

@@ -279,7 +279,7 @@ class PointRun:
         traj = sim.run(self.time, save_every=self.save_every, progress=False)
         helix = Helix.from_filament(self.params.filament)
         regime = classify(traj.t, traj.thrust, traj.positions, helix.radius, helix.axial_length,
-                          self.average_from)
+                          self.average_from, traj.kT)
         return {**traj.summary(self.average_from).to_dict(), "regime": regime, "steps": sim.steps}
 
 

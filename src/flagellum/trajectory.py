@@ -131,7 +131,20 @@ class Trajectory:
         """
         return summarize_run(self.t, self.thrust, self.motor_angle, self.positions, self.energy,
                              self.meta.get("helix_radius", 0.2), t_from, self.torque,
-                             self.relative_motor_speed)
+                             self.relative_motor_speed, self.kT)
+
+    @property
+    def kT(self) -> float:
+        """Thermal energy of the run's noise [pN·µm]: the parameters' kT for a thermal run,
+        0 for a deterministic one (the regime criteria depend on it)."""
+        if not int(self.meta.get("thermal", 0)):
+            return 0.0
+        try:
+            return float(json.loads(str(self.meta["spec"]))["params"]["fluid"]["kT"])
+        except (KeyError, TypeError, ValueError):  # a thermal run without its parameters
+            from .analysis.regimes import KT_ROOM
+
+            return KT_ROOM
 
     @property
     def relative_motor_speed(self) -> np.ndarray:

@@ -280,7 +280,7 @@ def simulate_point(spec: dict) -> dict:
     sel = tr.t >= t_from - 1e-12
     th = tr.thrust[sel]
     sigma0 = helix.radius / math.sqrt(2)
-    regime = classify(tr.t, tr.thrust, tr.positions, helix.radius, helix.axial_length, t_from)
+    regime = classify(tr.t, tr.thrust, tr.positions, helix.radius, helix.axial_length, t_from, tr.kT)
     sig = s.end_to_end_std / sigma0
     # fast part of σ: r about its running mean over FAST_WINDOW (compressional fluctuations,
     # without the slow drifts of weakly damped modes)

@@ -173,20 +173,20 @@ def _alarm(signum, frame):
     raise Hang
 
 
-def run_one(argv: list, d: Path) -> tuple[str | None, int | None, str]:
+def run_one(argv: list, d: Path, timeout: float = TIMEOUT) -> tuple[str | None, int | None, str]:
     """Run ``argv`` in process in ``d``; return (defect or None, exit code, stderr)."""
     err = io.StringIO()
     cwd = os.getcwd()
     os.chdir(d)
     old = signal.signal(signal.SIGALRM, _alarm)
-    signal.setitimer(signal.ITIMER_REAL, TIMEOUT)
+    signal.setitimer(signal.ITIMER_REAL, timeout)
     try:
         with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
             code = run(argv)
     except WorkStarted:
         return None, None, ""
     except Hang:
-        return f"no answer within {TIMEOUT:g} s", None, err.getvalue()
+        return f"no answer within {timeout:g} s", None, err.getvalue()
     except BaseException as exc:  # anything escaping run() is a defect, also SystemExit
         return f"{type(exc).__name__} escaped: {exc}", None, err.getvalue()
     finally:
@@ -208,13 +208,13 @@ def run_one(argv: list, d: Path) -> tuple[str | None, int | None, str]:
     return None, code, text
 
 
-def fuzz(cases, template: Path, d: Path) -> tuple[list, list]:
+def fuzz(cases, template: Path, d: Path, timeout: float = TIMEOUT) -> tuple[list, list]:
     """Run ``cases``; return (defects, the failed invocations with their one line)."""
     _fill(template, d)
     clean = _snapshot(d)
     defects, refused = [], []
     for name, argv in cases:
-        problem, code, text = run_one(argv, d)
+        problem, code, text = run_one(argv, d, timeout)
         now = _snapshot(d)
         if code == 2 and problem is None:
             left = sorted(set(now) - set(clean))
@@ -269,3 +269,21 @@ def test_a_sample_keeps_the_contract_in_a_fresh_process(template, tmp_path, no_w
         assert r.returncode == 2 and "Traceback" not in r.stderr, (argv, r.stderr)
         assert len(lines) == 1 and lines[0].startswith(PREFIX), (argv, r.stderr)
         assert _snapshot(d).keys() == _snapshot(template).keys() | {"fifo", "link", "dangling"}
+
+
+@pytest.mark.slow
+def test_a_sample_keeps_the_contract_when_the_work_runs(template, tmp_path):
+    """A seeded sample run for real, nothing stopped: short simulations (the fuzzed flag
+    after a 3-ms run's settings, so that it wins), movies, snapshots and exports. A failure
+    inside the work (CVODE giving up, a blow-up, a write) must keep the contract too."""
+    rng = random.Random(SEED + 1)
+    short = ["--time", "0.003", "--save-every", "1e-3"]
+    sample = []
+    for name, k in (("simulate", 16), ("render", 4), ("export", 4)):
+        lines = [a for n, a in CASES if n == name]
+        for argv in rng.sample(lines, k):
+            if name == "simulate":
+                argv = [*argv[:3], *short, *argv[3:]]
+            sample.append((name, argv))
+    defects, _ = fuzz(sample, template, tmp_path / "scratch", timeout=120)
+    assert not defects, "\n".join(defects)

@@ -15,6 +15,7 @@ Three groups, as in Vogel & Stark (2012) Sec. 2.4:
 from __future__ import annotations
 
 import math
+import sys
 try:
     import tomllib
 except ModuleNotFoundError:  # Python 3.10
@@ -48,6 +49,8 @@ def check_real(name: str, value: Any, allowed: str = "a finite number") -> float
         raise ParameterError(name, f"an integer of {len(str(abs(value)))} digits", allowed) from None
     if not math.isfinite(value):
         raise ParameterError(name, value, allowed)
+    if value != 0 and abs(value) < sys.float_info.min:  # subnormal: arithmetic 100× slower
+        raise ParameterError(name, value, f"{allowed}, not subnormal (|x| ≥ {sys.float_info.min:.3g})")
     return value
 
 

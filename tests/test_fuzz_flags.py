@@ -45,7 +45,7 @@ INTS = ["-1", "0", "-0", "99999999999999999999999", str(2 ** 63), str(-2 ** 63 -
 TEXT = FLOATS + ["1:3:1", "3:1:1", "1:2:0", "1:2:-1", "0:1e9:1e-9", "1:1e308:1e-308", "a,b",
                  "1,nan", "1,,2", ",", ":", "::", "nan:1", "-1,2", "1e400,1", "true", "x=1", "=",
                  "method=", "rtol=nan", "e-coli", "file", "fifo", "/dev/zero", "x" * 300]
-#: paths, relative to the scratch directory that :func:`scratch` fills
+#: paths, relative to the scratch directory that :func:`_fill` fills
 PATHS = ["", " ", ".", "missing.h5", "missing/sub/x.h5", "fifo", "dir", "file/under", "/dev/zero",
          "/dev/null", "link", "dangling", "a" * 300, "traj.h5", "garbage.h5", "empty",
          "bad.toml", "/proc/none/x"]
@@ -131,7 +131,7 @@ def invocations(seed: int = SEED, per_flag: int = PER_FLAG, combos: int = COMBOS
 # -- the scratch directory every invocation runs in -------------------------------------------
 
 @pytest.fixture(scope="module")
-def template(tmp_path_factory, request):
+def template(tmp_path_factory):
     """Files the path values refer to; copied into a fresh scratch directory as needed."""
     from flagellum import Params
     from flagellum.motor import Motor

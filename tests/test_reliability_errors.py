@@ -11,10 +11,10 @@ import textwrap
 import numpy as np
 import pytest
 from conftest import assert_one_line_error
+from test_bad_input import _killed_after_checkpoints
 
-from flagellum import ParameterError, Params
+from flagellum import ParameterError
 from flagellum.integrate.cvode import SundialsOutput
-from flagellum.motor import Motor
 from flagellum.simulator import Simulator
 
 # -- SUNDIALS output ---------------------------------------------------------------------
@@ -121,26 +121,6 @@ def test_a_really_full_disk_during_the_final_write_is_one_line_and_resumes(tmp_p
         subprocess.run(["umount", str(d)], timeout=30)
 
 
-def _killed_after_first_checkpoint(out):
-    import signal
-
-    pid = os.fork()
-    if pid == 0:
-        try:
-            orig = Simulator._checkpoint
-
-            def once(self, *a, **kw):
-                orig(self, *a, **kw)
-                os.kill(os.getpid(), signal.SIGKILL)
-
-            Simulator._checkpoint = once
-            Simulator(Params.from_flat({"length": 2.0}), Motor(0.5)).run(
-                0.06, 1e-3, output=out, checkpoint_every=0.02, progress=False)
-        finally:
-            os._exit(0)
-    os.waitpid(pid, 0)
-
-
 @pytest.mark.parametrize("damage", ["state too short", "state 2-D", "state text", "charts",
                                     "motor angle", "plan", "random stream"])
 def test_a_checkpoint_with_a_damaged_state_is_refused(damage, tmp_path, cli):
@@ -151,7 +131,7 @@ def test_a_checkpoint_with_a_damaged_state_is_refused(damage, tmp_path, cli):
     import h5py
 
     out = tmp_path / "run.h5"
-    _killed_after_first_checkpoint(out)
+    _killed_after_checkpoints(out, 1)
     with h5py.File(str(out) + ".ckpt", "r+") as f:
         y = f["y"][()]
         if damage.startswith("state"):

@@ -85,8 +85,6 @@ def save_figure(fig, out_dir: Path, name: str, title: str | None = None,
 
 def write_h5(path: Path, groups: dict, attrs: dict | None = None) -> Path:
     """``{group: {name: array}}`` as an HDF5 file (the same data as the CSV files)."""
-    import h5py
-
     from ..io import atomic_path, new_hdf5
 
     with atomic_path(path) as tmp:

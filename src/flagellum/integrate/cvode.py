@@ -15,6 +15,7 @@ Tornberg & Shelley (2004) (docs/hydrodynamics.md).
 from __future__ import annotations
 
 import contextlib
+import functools
 import io
 import os
 import re
@@ -45,14 +46,22 @@ def _band_to_dense(ab, kl, ku, out):
             out[i, j] = ab[j, kv + i - j]
 
 
-def _flush_c_streams() -> None:
-    """Flush C's stdio buffers (SUNDIALS' logger writes through them)."""
+@functools.cache
+def _c_fflush():
+    """C's ``fflush`` (looked up once: a lookup costs 60 µs, a call 0.2 µs), or None."""
     import ctypes
 
     try:
-        ctypes.CDLL(None).fflush(None)
+        return ctypes.CDLL(None).fflush
     except (OSError, AttributeError):  # pragma: no cover - no C library to ask
-        pass
+        return None
+
+
+def _flush_c_streams() -> None:
+    """Flush C's stdio buffers (SUNDIALS' logger writes through them)."""
+    fflush = _c_fflush()
+    if fflush is not None:
+        fflush(None)
 
 
 class SundialsOutput:
@@ -79,8 +88,9 @@ class SundialsOutput:
             with contextlib.suppress(Exception):
                 stream.flush()
         _flush_c_streams()
-        self._file.seek(0)
-        self._file.truncate()
+        if os.fstat(self._file.fileno()).st_size:
+            self._file.seek(0)
+            self._file.truncate()
         saved = []
         try:
             for fd in (1, 2):
@@ -96,8 +106,10 @@ class SundialsOutput:
             for fd, copy in saved:
                 os.dup2(copy, fd)
                 os.close(copy)
-            self._file.seek(0)
-            raw = self._file.read().decode(errors="replace") + "\n" + text.getvalue()
+            raw = text.getvalue()
+            if os.fstat(self._file.fileno()).st_size:
+                self._file.seek(0)
+                raw = self._file.read().decode(errors="replace") + "\n" + raw
             self.warnings, self.errors = [], []
             for line in raw.splitlines():
                 if line.strip():

@@ -140,8 +140,13 @@ def test_a_failed_export_leaves_no_frames(run_file, tmp_path, monkeypatch):
 
     monkeypatch.setattr(ex, "write_vtp", fail_third)
     with pytest.raises(OSError):
-        export_trajectory(run_file, tmp_path / "o", "vtk", every=5)
-    assert list((tmp_path / "o").iterdir()) == []
+        export_trajectory(run_file, tmp_path / "o" / "p", "vtk", every=5)
+    assert not (tmp_path / "o").exists()  # neither frames nor the folders it made
+    (tmp_path / "kept").mkdir()
+    calls.clear()
+    with pytest.raises(OSError):
+        export_trajectory(run_file, tmp_path / "kept", "vtk", every=5)
+    assert list((tmp_path / "kept").iterdir()) == []  # a folder that was there stays
 
 
 @pytest.mark.parametrize("args", [

@@ -60,9 +60,19 @@ def no_work(monkeypatch):
 
     monkeypatch.setattr(Simulator, "_loop", _stop)  # simulate, demo, bench
     monkeypatch.setattr(sweep, "process_pool", _stop)
+    monkeypatch.setattr(sweep, "dask_pool", _stop)
     monkeypatch.setattr(manifold, "compute_manifold", _stop)
     monkeypatch.setattr(stability, "_Branch", _stop)  # critical-torque
     monkeypatch.setattr(reproduce, "Timer", _stop)  # reproduce: after its checks
+    import flagellum.analysis.bifurcations as bifurcations
+    import flagellum.export as export
+    import flagellum.theory.effective_rigidity as effective_rigidity
+    import flagellum.viz as viz
+
+    monkeypatch.setattr(bifurcations, "_executor", _stop)  # the M_c2 scan
+    monkeypatch.setattr(viz, "_frames", _stop)  # render: drawing the frames
+    monkeypatch.setattr(export, "write_vtp", _stop)  # export: writing the frames
+    monkeypatch.setattr(effective_rigidity, "measured_bending_rigidity", _stop)  # --measure
 
 
 def _files(d: Path) -> set:

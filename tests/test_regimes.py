@@ -1,5 +1,5 @@
 """Regime detector (paper Sec. 3.1, Figs. 3–4) on constructed time series: the four regimes
-and the cases at the edges of each criterion (milliseconds, no simulation)."""
+and the cases at the edges of each criterion (milliseconds), and two short thermal runs."""
 
 import math
 
@@ -162,3 +162,33 @@ def test_count_swings():
     assert count_swings(np.full(10, 4.0), band) == 0
     assert count_swings(np.array([4.0]), band) == 0
     assert count_swings(4.0 + R * np.cos(np.linspace(0, 20, 400)), band) == 0
+
+
+@pytest.mark.parametrize("torque,expected", [(0.5, "aligned"), (2.0, "buckled")])
+def test_thermal_runs_are_classified_by_their_shape(torque, expected):
+    """At room temperature (kT = 4.1e-3 pN·µm) the thrust of an aligned filament fluctuates by
+    about twice its mean and its axis tilts by several degrees: that is not buckling. Below
+    M_c1 = 1.066 pN·µm (linear stability, Sec. 3.2) the filament is aligned, above it buckled
+    (Fig. 3(a)); the deterministic criteria called both thermal runs buckled."""
+    from flagellum import Params
+    from flagellum.motor import Motor
+    from flagellum.simulator import Simulator
+
+    tr = Simulator(Params.from_flat({"kT": 4.1e-3}), Motor(torque), thermal=True, seed=1).run(
+        0.3, save_every=1e-3, progress=False)
+    assert tr.kT == 4.1e-3
+    s = tr.summary()
+    assert s.regime == expected, s.regime_note
+    m = measure(tr.t, tr.thrust, tr.positions, tr.meta["helix_radius"])  # as if deterministic
+    assert decide(m) == "buckled"
+
+
+def test_thermal_threshold_scales_with_the_noise_amplitude():
+    """σ/σ0 of thermal fluctuations grows as √kT (equipartition); without noise the
+    deterministic threshold applies."""
+    from flagellum.analysis.regimes import KT_ROOM, SIGMA_THERMAL, sigma_buckled
+
+    assert sigma_buckled(0.0) == SIGMA_BUCKLED
+    assert sigma_buckled(KT_ROOM) == SIGMA_THERMAL
+    assert sigma_buckled(4 * KT_ROOM) == pytest.approx(2 * SIGMA_THERMAL)
+    assert sigma_buckled(1e-9) == SIGMA_BUCKLED

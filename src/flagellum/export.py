@@ -16,6 +16,7 @@ over those files, which ParaView opens as one animated data set.
 
 from __future__ import annotations
 
+import contextlib
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -124,7 +125,7 @@ def export_vtk(t: np.ndarray, positions: np.ndarray, out_dir: str | Path, *,
     Returns
     -------
     dict with ``frames`` (count), ``points`` (per frame), ``vtp`` (list of paths) and
-    ``pvd`` (the index). A failed write removes the frames this call wrote.
+    ``pvd`` (the index). A failed write removes the frames and the folders this call wrote.
     """
     from .io import atomic_write_text
 
@@ -137,6 +138,7 @@ def export_vtk(t: np.ndarray, positions: np.ndarray, out_dir: str | Path, *,
         raise ParameterError("every", every, "an integer ≥ 1")
     _vtk()  # a missing vtk fails before anything is written
     out = Path(out_dir)
+    created = [p for p in (out, *out.parents) if not p.exists()]  # removed again on failure
     out.mkdir(parents=True, exist_ok=True)
     idx = list(range(0, len(t), int(every)))
     if idx[-1] != len(t) - 1:
@@ -154,6 +156,9 @@ def export_vtk(t: np.ndarray, positions: np.ndarray, out_dir: str | Path, *,
     except BaseException:
         for p in files:
             p.unlink(missing_ok=True)
+        for d in created:  # innermost first; only folders this call made and left empty
+            with contextlib.suppress(OSError):
+                d.rmdir()
         raise
     return {"frames": len(idx), "points": int(positions.shape[1]), "vtp": files, "pvd": pvd}
 

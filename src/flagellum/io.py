@@ -35,6 +35,19 @@ def input_file(path, name: str = "file", max_bytes: int | None = None) -> Path:
     return Path(path)
 
 
+def read_text(path, name: str = "file", max_bytes: int = MAX_CONFIG_BYTES) -> str:
+    """The text of a small input file (a parameter file, a motor-law table), read only after
+    :func:`input_file` checked it; a file that is not UTF-8 text is a
+    :class:`~flagellum.errors.ParameterError` naming ``name``."""
+    from .errors import ParameterError
+
+    try:
+        return input_file(path, name, max_bytes).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else "not UTF-8 text"
+        raise ParameterError(name, str(path), f"a readable text file ({why})") from None
+
+
 def output_file(path, name: str = "output") -> Path:
     """``path`` checked as a file to (re)place: a name, and a regular file where something
     is there already (a rename would replace a symlink, directory entry or device)."""
@@ -66,6 +79,7 @@ class OutputLock:
 
         from .errors import ParameterError
 
+        self.path.parent.mkdir(parents=True, exist_ok=True)  # (the run's output folder)
         while self._fd is None:
             fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
             try:
@@ -116,6 +130,57 @@ def atomic_path(path: str | Path):
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
+
+
+class _WriteGuard:
+    """A file object for HDF5 that keeps the first failed write (a full disk) instead of
+    letting HDF5 see it: HDF5 fails badly on a write error while it closes a file (h5py
+    crashes with a segmentation fault in its object teardown), so the error is raised only
+    after the file was closed (:func:`new_hdf5`)."""
+
+    def __init__(self, fh):
+        self._fh, self.error = fh, None
+
+    def write(self, data):
+        view = memoryview(data).cast("B")
+        done = 0
+        while self.error is None and done < len(view):  # (an unbuffered write may be partial)
+            try:
+                done += self._fh.write(view[done:])
+            except OSError as exc:
+                self.error = exc
+        return len(view)
+
+    def truncate(self, size=None):
+        if self.error is None:
+            try:
+                return self._fh.truncate(size)
+            except OSError as exc:
+                self.error = exc
+        return size
+
+    def __getattr__(self, name):  # read, readinto, seek, tell, flush
+        return getattr(self._fh, name)
+
+
+@contextmanager
+def new_hdf5(path):
+    """Yield a new ``h5py.File`` at ``path`` (normally a temporary file of
+    :func:`atomic_path`), written through :class:`_WriteGuard`: a failed write is raised as
+    the ``OSError`` it was, after HDF5 has closed the file, never inside HDF5."""
+    import h5py
+
+    with open(path, "w+b", buffering=0) as fh:  # unbuffered: errors come from write, nowhere else
+        guard = _WriteGuard(fh)
+        try:
+            with h5py.File(guard, "w") as f:
+                yield f
+        except Exception:
+            if guard.error is not None:  # what HDF5 made of the lost write: the write's error
+                raise guard.error from None
+            raise
+        if guard.error is not None:
+            raise guard.error
 
 
 def atomic_write_text(path: str | Path, text: str) -> None:
@@ -304,10 +369,8 @@ def _append(f, records: dict) -> None:
 
 def create_trajectory(path, n: int, attrs: dict) -> None:
     """Create an empty, chunked, resizable trajectory file (atomically)."""
-    import h5py
-
     with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as f:
+        with new_hdf5(tmp) as f:
             _init_datasets(f, n, attrs)
 
 
@@ -338,10 +401,8 @@ def part_last_time(part) -> float:
 
 def write_part(path, index: int, records: dict) -> None:
     """Write one interval's records (dict of equally long lists) as part ``index`` of ``path``."""
-    import h5py
-
     with atomic_path(part_path(path, index)) as tmp:
-        with h5py.File(tmp, "w") as f:
+        with new_hdf5(tmp) as f:
             for name in RECORD_FIELDS:
                 f[name] = np.asarray(records[name], float)
 
@@ -396,7 +457,7 @@ def finish_trajectory(path, tail: dict | None = None, final_state=None,
     with h5py.File(path, "r") as f:
         old, n = dict(f.attrs), _n_segments(f)
     with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as f:
+        with new_hdf5(tmp) as f:
             _init_datasets(f, n, {**old, **(attrs or {})})
             for p in part_files(path):
                 with h5py.File(p, "r") as part:
@@ -450,16 +511,18 @@ def read_trajectory(path, records: bool = True) -> dict:
 
 
 def check_writable(path: Path, nbytes: int = 0) -> None:
-    """Fail before a run if ``path`` cannot be written or its disk lacks ``nbytes``."""
+    """Fail before a run if ``path`` cannot be written or its disk lacks ``nbytes``. Creates
+    nothing: folders that ``path`` still needs are judged by the nearest existing one."""
     from .errors import ParameterError
 
     path = output_file(path)
     d = path.parent if str(path.parent) else Path(".")
-    if d.exists() and not d.is_dir():
+    while not d.exists() and d != d.parent:  # folders still to create: the write creates them;
+        d = d.parent                          # the nearest existing one must take them
+    if not d.is_dir():
         raise ParameterError("output", str(path), "a path in a writable directory")
     probe = d / f".{path.name}.probe"
     try:
-        d.mkdir(parents=True, exist_ok=True)
         try:
             probe.write_bytes(b"0")
         finally:  # also when the write fails (a full disk): leave nothing behind

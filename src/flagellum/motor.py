@@ -91,11 +91,10 @@ class MotorLaw:
         ``torques``."""
         from pathlib import Path
 
+        from .io import read_text
+
         p = Path(path)
-        try:
-            text = p.read_text()
-        except OSError as e:
-            raise ParameterError("motor_law", str(path), f"a readable file ({e.strerror})")
+        text = read_text(path, "motor_law")  # (a FIFO, a device or a binary file: refused)
         if p.suffix.lower() == ".toml":
             import tomllib
 

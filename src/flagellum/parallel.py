@@ -35,6 +35,30 @@ BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THR
 WORKERS_VARIABLE = "FLAGELLUM_WORKERS"
 
 
+#: most worker processes a command starts: far more than the cores of any one machine; a
+#: larger count (a typo, 10**23) would try to start them all
+MAX_WORKERS = 1024
+
+
+def check_workers(name: str, n) -> int | None:
+    """``n`` (None: the default) checked as a count of worker processes in [1, MAX_WORKERS]."""
+    if n is not None and (isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_WORKERS):
+        raise ParameterError(name, n, f"an integer in [1, {MAX_WORKERS}]")
+    return n
+
+
+def check_scheduler(address: str | None) -> str | None:
+    """``address`` (None: no scheduler) checked as a dask scheduler address
+    ``[protocol://]host:port`` before anything is started or written."""
+    import re
+
+    if address is not None and not re.fullmatch(
+            r"(?:(?:tcp|tls|ucx|ws|wss)://)?(?:[A-Za-z0-9_.-]+|\[[0-9A-Fa-f:.]+\]):\d{1,5}", address):
+        raise ParameterError("scheduler", address, "a dask scheduler address protocol://host:port, "
+                                                   "e.g. tcp://127.0.0.1:8786")
+    return address
+
+
 def default_workers(at_most: int | None = None) -> int:
     """Worker processes when the caller gives none: ``FLAGELLUM_WORKERS`` if it is a positive
     integer, else the CPU count capped at ``at_most``."""
@@ -113,7 +137,7 @@ def dask_pool(scheduler: str | None, dask_local: int | None):
                                                dashboard_address=None, silence_logs=logging.ERROR)
         try:
             client = distributed.Client(cluster if cluster is not None else scheduler, timeout=15)
-        except (OSError, TimeoutError, ValueError) as exc:
+        except (OSError, TimeoutError, ValueError, AssertionError) as exc:
             detail = " ".join(f"{type(exc).__name__}: {exc}".split())[:500]
             raise ParameterError("scheduler", where, f"a reachable dask scheduler ({detail})") from None
         yield (lambda fn, arg: client.submit(fn, arg, pure=False)), distributed.as_completed

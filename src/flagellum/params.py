@@ -15,6 +15,7 @@ Three groups, as in Vogel & Stark (2012) Sec. 2.4:
 from __future__ import annotations
 
 import math
+import sys
 try:
     import tomllib
 except ModuleNotFoundError:  # Python 3.10
@@ -48,6 +49,8 @@ def check_real(name: str, value: Any, allowed: str = "a finite number") -> float
         raise ParameterError(name, f"an integer of {len(str(abs(value)))} digits", allowed) from None
     if not math.isfinite(value):
         raise ParameterError(name, value, allowed)
+    if value != 0 and abs(value) < sys.float_info.min:  # subnormal: arithmetic 100× slower
+        raise ParameterError(name, value, f"{allowed}, not subnormal (|x| ≥ {sys.float_info.min:.3g})")
     return value
 
 
@@ -309,13 +312,9 @@ class Params:
 
 def read_toml(path: str | Path) -> dict:
     """Read a TOML file, turning every failure into a one-line :class:`ParameterError`."""
-    from .io import MAX_CONFIG_BYTES, input_file
+    from .io import read_text
 
-    input_file(path, "config", MAX_CONFIG_BYTES)
-    try:
-        text = Path(path).read_text()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ParameterError("config", str(path), f"a readable TOML file ({exc.__class__.__name__})")
+    text = read_text(path, "config")
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

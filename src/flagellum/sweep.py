@@ -46,7 +46,7 @@ from . import io
 from .analysis.observables import Summary
 from .errors import FlagellumError, ParameterError
 from .grid import MAX_POINTS, MODEL_PARAMETERS, PARAMETERS, canonical_name, convert, parse_values
-from .parallel import dask_pool, default_workers, process_pool
+from .parallel import check_scheduler, check_workers, dask_pool, default_workers, process_pool
 from .params import Params, positive, read_toml
 
 if TYPE_CHECKING:
@@ -284,7 +284,7 @@ class PointRun:
         traj = sim.run(self.time, save_every=self.save_every, progress=False)
         helix = Helix.from_filament(self.params.filament)
         regime = classify(traj.t, traj.thrust, traj.positions, helix.radius, helix.axial_length,
-                          self.average_from)
+                          self.average_from, traj.kT)
         return {**traj.summary(self.average_from).to_dict(), "regime": regime, "steps": sim.steps}
 
 
@@ -384,7 +384,7 @@ class _Store:
         import h5py
 
         with io.atomic_path(self.path) as tmp:
-            with h5py.File(tmp, "w") as f:
+            with io.new_hdf5(tmp) as f:
                 f.attrs.update(io.netcdf_attrs(self.attrs))
                 for name, values in self.sweep.ranges:
                     kind = "str" if PARAMETERS[name] is str else ("i1" if PARAMETERS[name] is bool else None)
@@ -498,9 +498,9 @@ def run_sweep(sweep: Sweep, out: str | Path, *, resume: bool = False, overwrite:
     t0 = time.perf_counter()
     if scheduler is not None and dask_local is not None:
         raise ParameterError("scheduler", scheduler, "not combined with dask_local")
-    for name, n in (("workers", workers), ("dask_local", dask_local)):
-        if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
-            raise ParameterError(name, n, "an integer ≥ 1")
+    check_workers("workers", workers)
+    check_workers("dask_local", dask_local)
+    check_scheduler(scheduler)
     fallback = _check_fallback(sweep, fallback)
     resume = resume or retry_failed
     store = _Store.open(sweep, Path(out), resume, overwrite, retry_failed)

@@ -158,7 +158,21 @@ class Trajectory:
         return summarize_run(self.t, self.thrust, self.motor_angle, self.positions, self.energy,
                              self.meta.get("helix_radius", 0.2), t_from, self.torque,
                              self.relative_motor_speed, body=(self.body_position, self.body_axis,
-                                                              self.body_angular_velocity))
+                                                              self.body_angular_velocity),
+                             kT=self.kT)
+
+    @property
+    def kT(self) -> float:
+        """Thermal energy of the run's noise [pN·µm]: the parameters' kT for a thermal run,
+        0 for a deterministic one (the regime criteria depend on it)."""
+        if not int(self.meta.get("thermal", 0)):
+            return 0.0
+        try:
+            return float(json.loads(str(self.meta["spec"]))["params"]["fluid"]["kT"])
+        except (KeyError, TypeError, ValueError):  # a thermal run without its parameters
+            from .analysis.regimes import KT_ROOM
+
+            return KT_ROOM
 
     @property
     def body_rotation_rate(self) -> np.ndarray:
@@ -191,6 +205,22 @@ def checkpoint_path(output: str | Path) -> Path:
 def record_bytes(n: int) -> int:
     """Bytes of one record of a filament with ``n`` segments."""
     return 8 * sum(int(np.prod(shape(n))) for shape, _ in io.RECORD_FIELDS.values())
+
+
+def checkpoint_digest(arrays: dict, attrs: dict) -> str:
+    """SHA-256 of a checkpoint's datasets (name, dtype, shape, bytes) and attributes (as
+    JSON), stored in it, so that a damaged or edited checkpoint is refused on resume instead
+    of handing the simulator a state it cannot use."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for k in sorted(arrays):
+        a = np.ascontiguousarray(arrays[k])
+        h.update(f"{k}|{a.dtype.str}|{a.shape}|".encode())
+        h.update(a.tobytes())
+    plain = {k: (v.item() if isinstance(v, np.generic) else v) for k, v in attrs.items()}
+    h.update(json.dumps(plain, sort_keys=True, default=str).encode())
+    return h.hexdigest()
 
 
 class OutputError(SimulationError):
@@ -273,14 +303,13 @@ class RunFiles:
     def write_checkpoint(self, arrays: dict, attrs: dict) -> None:
         """Atomically replace the checkpoint by ``arrays`` (datasets) and ``attrs`` (plus
         ``n_parts``)."""
-        import h5py
-
+        attrs = {**attrs, "n_parts": self.n_parts, "parts": json.dumps(self.digests[:self.n_parts])}
+        arrays = {k: np.asarray(v) for k, v in arrays.items()}
         with writing(self.path), io.atomic_path(self.checkpoint) as tmp:
-            with h5py.File(tmp, "w") as f:
+            with io.new_hdf5(tmp) as f:
                 for k, v in arrays.items():
                     f[k] = v
-                f.attrs.update({**attrs, "n_parts": self.n_parts,
-                                "parts": json.dumps(self.digests[:self.n_parts])})
+                f.attrs.update({**attrs, "digest": checkpoint_digest(arrays, attrs)})
 
     def finish(self, tail: dict, final_state, status: str, **attrs) -> None:
         """Write the main file from the parts and the records in ``tail`` (atomically)."""
@@ -314,18 +343,22 @@ class RunFiles:
             return None
         with h5py.File(self.checkpoint, "r") as f:
             arrays, attrs = {k: f[k][()] for k in f}, dict(f.attrs)
+        digest = attrs.pop("digest", None)  # (checkpoints of earlier versions have none)
+        if digest is not None and str(digest) != checkpoint_digest(arrays, attrs):
+            raise self._damaged(f"{self.checkpoint.name} has changed since it was written")
         self.verify(attrs)
         return arrays, attrs
+
+    def _damaged(self, why: str):
+        from .errors import ParameterError
+
+        return ParameterError("resume", str(self.path), f"an undamaged run to continue ({why}; "
+                              "start it again with --overwrite)")
 
     def verify(self, ckpt: dict) -> None:
         """Refuse a checkpoint (attributes ``ckpt``) that does not fit the main file and the
         parts: another run's parameters, a part missing or changed, records lost or added."""
-        from .errors import ParameterError
-
-        def damaged(why):
-            return ParameterError("resume", str(self.path), f"an undamaged run to continue ({why}; "
-                                  "start it again with --overwrite)")
-
+        damaged = self._damaged
         main = self.attrs()
         if "spec" in main and str(ckpt.get("spec")) != str(main["spec"]):
             raise damaged(f"the parameters of {self.checkpoint.name} differ from the file's")

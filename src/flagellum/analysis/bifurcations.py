@@ -33,7 +33,7 @@ from ..grid import parse_values
 from ..hydro.options import Hydrodynamics
 from ..motor import Boundary
 from ..paper import PAPER
-from ..parallel import process_pool, serial_pool
+from ..parallel import check_workers, process_pool, serial_pool
 from ..params import Params, check_choice, check_range, positive
 from .regimes import decide, measure
 
@@ -295,8 +295,7 @@ def bifurcations(params: Params | None = None, boundary: Boundary | None = None,
     torques = scan_torques(quality, torque_range)
     t_end = positive("t_end", q["t_end"] if t_end is None else t_end, 100.0)
     tol = positive("tol", q["tol"] if tol is None else tol, 10.0)
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise ParameterError("workers", workers, "an integer ≥ 1")
+    check_workers("workers", workers)
     if confirm_mc1 is not None:
         confirm_mc1 = check_range("confirm_mc1", confirm_mc1, 0.0, 0.9)
     simulate = simulate or RunConfig(params, boundary, t_end, hydrodynamics=hydrodynamics)

@@ -29,6 +29,16 @@ The four regimes of Fig. 3(a), told apart by what a run shows in its averaging w
         alone can give a large σ. The mid-range, not ⟨r⟩, centres the band, so that one
         brief collapse in a long relaxed window still counts.
 
+With thermal noise (a run at kT > 0) two of the buckled-state signatures no longer tell the
+regimes apart: the instantaneous thrust fluctuates by about twice its mean (the thermal
+forces on the beads next to the anchor), and the centroid leaves the motor axis because the
+whole aligned filament tilts thermally about its free hook joint (by 5–9° for the paper's
+filament at room temperature, against 1.5° without noise). A thermal window is therefore
+called buckled by its change of shape alone: σ/σ0 above :func:`sigma_buckled`, the level of
+the thermal fluctuations of r scaled with √(kT) (equipartition: every mode's amplitude grows
+as √kT). The other regimes keep their criteria (the mean thrust, the tilt beyond 45°, the
+collapses of (iv)).
+
 A run that has not settled can look like another regime: the filament starts from the
 stress-free helix, and its relaxation (the centroid drifting onto the motor axis, the thrust
 settling) takes longer than a short run. :func:`assess` therefore also tests the window
@@ -64,6 +74,14 @@ SWING = 1.5
 CENTROID_BUCKLED = 0.25
 THRUST_BUCKLED = 0.05
 SIGMA_BUCKLED = 0.3
+#: thermal energy [pN·µm] at which :data:`SIGMA_THERMAL` was measured (room temperature, the
+#: paper's kT)
+KT_ROOM = 4.1e-3
+#: σ/σ0 above which a thermal window is buckled at kT = KT_ROOM. Thermal runs of the paper's
+#: filament (0.3 s, last half, seeds 1 and 2) give 0.20–0.39 aligned (M = 0.5–1.0 pN·µm, up
+#: to 0.94 M_c1; the paper's 0.15–0.18, Sec. 3.1.2, further below M_c1) and 1.0–1.6 buckled
+#: (M = 1.3–3): the threshold lies a factor 1.5 above the one and 1.7 below the other
+SIGMA_THERMAL = 0.6
 #: mean tilt [deg] of the end-to-end vector from −e_z beyond which the filament has turned away
 TILT_REORIENTED = 45.0
 #: a quarter-to-quarter trend counts when its slope exceeds this many standard errors
@@ -91,6 +109,7 @@ class RegimeMetrics:
     tilt_deg: float  #: mean tilt of the end-to-end vector from −e_z [deg]
     swings: int  #: crossings of r(t) through its mid-range ± SWING·R (a collapse or a recovery)
     samples: int
+    kT: float = 0.0  #: thermal energy of the run's noise [pN·µm] (0: deterministic)
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -118,8 +137,10 @@ def _window(t, t_from: float | None) -> np.ndarray:
     return sel
 
 
-def measure(t, thrust, positions, helix_radius: float, t_from: float | None = None) -> RegimeMetrics:
-    """Regime observables over the window t ≥ t_from (default: the last half)."""
+def measure(t, thrust, positions, helix_radius: float, t_from: float | None = None,
+            kT: float = 0.0) -> RegimeMetrics:
+    """Regime observables over the window t ≥ t_from (default: the last half) of a run with
+    thermal noise at ``kT`` [pN·µm] (0: deterministic)."""
     t = np.asarray(t, float)
     sel = _window(t, t_from)
     th = np.asarray(thrust, float)[sel]
@@ -132,31 +153,43 @@ def measure(t, thrust, positions, helix_radius: float, t_from: float | None = No
         thrust_mean=float(th.mean()), thrust_std=float(th.std()),
         sigma_over_sigma0=float(r.std() / (helix_radius / math.sqrt(2))), r_mean=float(r.mean()),
         centroid_offset=float(centroid.mean() / helix_radius), tilt_deg=float(tilt.mean()),
-        swings=count_swings(r, SWING * helix_radius), samples=int(sel.sum()))
+        swings=count_swings(r, SWING * helix_radius), samples=int(sel.sum()), kT=float(kT))
+
+
+def sigma_buckled(kT: float = 0.0) -> float:
+    """σ/σ0 above which a window is buckled: :data:`SIGMA_BUCKLED` without noise, else
+    :data:`SIGMA_THERMAL` scaled with √(kT/KT_ROOM) (never below SIGMA_BUCKLED)."""
+    if kT <= 0:
+        return SIGMA_BUCKLED
+    return max(SIGMA_BUCKLED, SIGMA_THERMAL * math.sqrt(kT / KT_ROOM))
 
 
 def decide(m: RegimeMetrics) -> str:
-    """The regime of a window from its :class:`RegimeMetrics` (criteria: module docstring)."""
+    """The regime of a window from its :class:`RegimeMetrics` (criteria: module docstring;
+    a thermal window, kT > 0, is buckled by σ/σ0 alone)."""
     if m.thrust_mean < 0:
         return "reorienting"
     if m.sigma_over_sigma0 > SIGMA_IV and m.swings >= 2:
         return "oscillating"
     if m.tilt_deg > TILT_REORIENTED:
         return "reorienting"
-    if (m.centroid_offset > CENTROID_BUCKLED or m.thrust_std > THRUST_BUCKLED * abs(m.thrust_mean)
-            or m.sigma_over_sigma0 > SIGMA_BUCKLED):
+    if m.sigma_over_sigma0 > sigma_buckled(m.kT):
+        return "buckled"
+    if m.kT <= 0 and (m.centroid_offset > CENTROID_BUCKLED
+                      or m.thrust_std > THRUST_BUCKLED * abs(m.thrust_mean)):
         return "buckled"
     return "aligned"
 
 
 def classify(t, thrust, positions, helix_radius: float, axial_length: float | None = None,
-             t_from: float | None = None) -> str:
-    """Name the regime of the window t ≥ t_from (default: the last half).
+             t_from: float | None = None, kT: float = 0.0) -> str:
+    """Name the regime of the window t ≥ t_from (default: the last half) of a run with
+    thermal noise at ``kT`` [pN·µm] (0: deterministic).
 
     ``axial_length`` is accepted for compatibility and not used. The window is taken as it
     is; :func:`assess` also tests whether it has settled.
     """
-    return decide(measure(t, thrust, positions, helix_radius, t_from))
+    return decide(measure(t, thrust, positions, helix_radius, t_from, kT))
 
 
 # -- settled or transient -------------------------------------------------------------------
@@ -169,7 +202,7 @@ _CRITERIA = (
     ("tilt_deg", lambda m: TILT_REORIENTED),
     ("centroid_offset", lambda m: CENTROID_BUCKLED),
     ("thrust_std", lambda m: THRUST_BUCKLED * abs(m.thrust_mean)),
-    ("sigma_over_sigma0", lambda m: SIGMA_BUCKLED),
+    ("sigma_over_sigma0", lambda m: sigma_buckled(m.kT)),
 )
 #: averages whose settling :func:`assess` tests, with the smallest scale a drift is judged by
 _AVERAGES = {"thrust_mean": 1e-3, "end_to_end_mean": 1e-3, "omega_mean": 1.0}  # pN, µm, rad/s
@@ -219,8 +252,9 @@ class Assessment:
 
 
 def assess(t, thrust, positions, motor_angle, helix_radius: float,
-           t_from: float | None = None) -> Assessment:
-    """Regime of the window t ≥ t_from (default: the last half) and whether it has settled.
+           t_from: float | None = None, kT: float = 0.0) -> Assessment:
+    """Regime of the window t ≥ t_from (default: the last half) and whether it has settled
+    (``kT``: the thermal energy of the run's noise [pN·µm], 0 for a deterministic run).
 
     The observables of :func:`measure` and the averages thrust, ⟨r⟩ and ω (slope of the
     unwrapped ``motor_angle``) are measured on the four quarters of the window. The regime is
@@ -240,14 +274,14 @@ def assess(t, thrust, positions, motor_angle, helix_radius: float,
     thrust, positions = np.asarray(thrust, float), np.asarray(positions, float)
     motor_angle = np.asarray(motor_angle, float)
     sel = _window(t, t_from)
-    whole = measure(t[sel], thrust[sel], positions[sel], helix_radius, -math.inf)
+    whole = measure(t[sel], thrust[sel], positions[sel], helix_radius, -math.inf, kT)
     label = decide(whole)
     if whole.samples < MIN_SAMPLES:
         return Assessment(label, label, False, ("samples",),
                           f"{whole.samples} records in the averaging window, too few "
                           f"(< {MIN_SAMPLES}) to test that it has settled")
     idx = np.array_split(np.flatnonzero(sel), 4)
-    quarters = [measure(t[i], thrust[i], positions[i], helix_radius, -math.inf) for i in idx]
+    quarters = [measure(t[i], thrust[i], positions[i], helix_radius, -math.inf, kT) for i in idx]
     ahead = {}
     for name in dict.fromkeys(n for n, _ in _CRITERIA):
         slope, se, next_value = _trend([getattr(q, name) for q in quarters])
@@ -298,10 +332,12 @@ class RunSummary(Summary):
 
 
 def summarize_run(t, thrust, motor_angle, positions, energy, helix_radius: float,
-                  t_from: float | None = None, torque=None, motor_speed=None, body=None) -> RunSummary:
-    """:func:`~flagellum.analysis.observables.summarize` plus :func:`assess` of the same window."""
+                  t_from: float | None = None, torque=None, motor_speed=None, body=None,
+                  kT: float = 0.0) -> RunSummary:
+    """:func:`~flagellum.analysis.observables.summarize` plus :func:`assess` of the same window
+    (``kT``: the thermal energy of the run's noise, 0 for a deterministic run)."""
     s = summarize(t, thrust, motor_angle, positions, energy, helix_radius, t_from, torque, motor_speed,
                   body)
-    a = assess(t, thrust, positions, motor_angle, helix_radius, s.t_from)
+    a = assess(t, thrust, positions, motor_angle, helix_radius, s.t_from, kT)
     return RunSummary(**s.to_dict(), regime=a.regime, steady=a.steady, drifting=a.drifting,
                       regime_note=a.note)

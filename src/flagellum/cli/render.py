@@ -14,15 +14,13 @@ from ._output import emit_json, emit_table
 def _title(data) -> str:
     """Torque and regime of the run (of its last half, as ``Trajectory.summary()``: a run
     that has not settled says ``transient``)."""
-    from ..analysis.regimes import summarize_run
+    from ..trajectory import Trajectory
 
     parts = []
     if len(data["torque"]):
         parts.append(f"M = {float(data['torque'][-1]):g} pN·µm")
-    radius = data["attrs"].get("helix_radius")
-    if radius is not None and len(data["t"]) >= 2:
-        parts.append(summarize_run(data["t"], data["thrust"], data["motor_angle"], data["positions"],
-                                   data["energy"], float(radius)).regime)
+    if data["attrs"].get("helix_radius") is not None and len(data["t"]) >= 2:
+        parts.append(Trajectory.from_records(data, data["attrs"]).summary().regime)
     return " · ".join(parts)
 
 

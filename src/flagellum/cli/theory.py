@@ -101,6 +101,7 @@ def buckling(m_hat, f_par, f_perp, chi, base, top, force_profile, torque_profile
 def manifold(out_dir, m_max, m_steps, f_par_max, f_par_steps, inv_a_max, inv_a_steps, base,
              workers, as_json, **kwargs):
     """Critical manifold, buckling curves, plane of Eq. (31) and M_c1(1/a) (Fig. 7)."""
+    from ..parallel import check_workers
     from ..params import check_choice
     from ..theory.buckling import BASES
     from ..theory.manifold import compute_manifold, write_manifold
@@ -114,7 +115,7 @@ def manifold(out_dir, m_max, m_steps, f_par_max, f_par_steps, inv_a_max, inv_a_s
         inv_a_values=np.linspace(0, check_range("inv_a_max", inv_a_max, 0, 1000),
                                  _count("inv_a_steps", inv_a_steps, 1, 1001)))
     try:
-        result = compute_manifold(params, base=base, workers=_count("workers", workers, 1, 256), **grid)
+        result = compute_manifold(params, base=base, workers=check_workers("workers", workers), **grid)
     except (ArithmeticError, IndexError, ValueError, np.linalg.LinAlgError) as exc:
         if isinstance(exc, ParameterError):
             raise

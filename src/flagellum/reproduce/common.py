@@ -85,12 +85,10 @@ def save_figure(fig, out_dir: Path, name: str, title: str | None = None,
 
 def write_h5(path: Path, groups: dict, attrs: dict | None = None) -> Path:
     """``{group: {name: array}}`` as an HDF5 file (the same data as the CSV files)."""
-    import h5py
-
-    from ..io import atomic_path
+    from ..io import atomic_path, new_hdf5
 
     with atomic_path(path) as tmp:
-        with h5py.File(tmp, "w") as f:
+        with new_hdf5(tmp) as f:
             for k, v in (attrs or {}).items():
                 f.attrs[k] = v
             for g, data in groups.items():
@@ -280,7 +278,7 @@ def simulate_point(spec: dict) -> dict:
     sel = tr.t >= t_from - 1e-12
     th = tr.thrust[sel]
     sigma0 = helix.radius / math.sqrt(2)
-    regime = classify(tr.t, tr.thrust, tr.positions, helix.radius, helix.axial_length, t_from)
+    regime = classify(tr.t, tr.thrust, tr.positions, helix.radius, helix.axial_length, t_from, tr.kT)
     sig = s.end_to_end_std / sigma0
     # fast part of σ: r about its running mean over FAST_WINDOW (compressional fluctuations,
     # without the slow drifts of weakly damped modes)

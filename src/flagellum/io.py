@@ -4,6 +4,7 @@ provenance; the HDF5 (netCDF-4) trajectory files."""
 from __future__ import annotations
 
 import glob
+import math
 import os
 import shutil
 import stat
@@ -180,7 +181,12 @@ RECORD_FIELDS = {
     "torque": (lambda n: (), "f8"),
     "energy": (lambda n: (), "f8"),
     "frame_angle": (lambda n: (), "f8"),
+    "end_force": (lambda n: (), "f8"),
+    "extension": (lambda n: (), "f8"),
+    "polymorph": (lambda n: (n,), "f8"),
 }
+#: record fields that files written before they existed lack: read as these values
+ADDED_FIELDS = {"end_force": 0.0, "extension": math.nan, "polymorph": 0.0}
 
 #: the record fields in a file: name → (dimensions of one record, CF units, long_name); the
 #: first dimension of every field is ``time``. Units are UDUNITS strings (µm, pN, s, rad).
@@ -197,12 +203,18 @@ RECORD_META = {
     "torque": ((), "pN um", "motor torque applied (an output of a speed clamp or a motor law)"),
     "energy": ((), "pN um", "elastic energy of the filament"),
     "frame_angle": ((), "rad", "angle of the co-rotating computational frame about e_z"),
+    "end_force": ((), "pN", "load pulling the free end along -e_z (extending the filament)"),
+    "extension": ((), "um", "end-to-end extension along the motor axis, z(bead 0) - z(last bead)"),
+    "polymorph": (("segment",), "1", "polymorphic order parameter of each joint (integers: the "
+                                    "forms in the order given, 0 the first; single-state runs 0)"),
 }
 #: the time coordinate's name in a file (``t`` in the records)
 TIME = "time"
 #: coordinate variables other than time: name → (values for n segments, attributes)
 COORDINATES = {
     "bead": (lambda n: np.arange(n + 1), {"units": "1", "long_name": "bead index (0: at the motor)"}),
+    "segment": (lambda n: np.arange(1, n + 1), {"units": "1", "long_name": "joint index: joint j "
+                                                "sets bond j relative to bond j-1 (bond 0: the hook frame)"}),
     "xyz": (lambda n: np.array(["x", "y", "z"]),
             {"long_name": "Cartesian component in the lab frame (e_z: the motor axis)"}),
 }
@@ -383,7 +395,10 @@ def finish_trajectory(path, tail: dict | None = None, final_state=None,
             _init_datasets(f, n, {**old, **(attrs or {})})
             for p in part_files(path):
                 with h5py.File(p, "r") as part:
-                    _append(f, {k: part[k][()] for k in RECORD_FIELDS})
+                    m = part["t"].shape[0]
+                    _append(f, {k: part[k][()] if k in part else
+                                np.full((m, *RECORD_FIELDS[k][0](n)), ADDED_FIELDS[k])
+                                for k in RECORD_FIELDS})
             if tail is not None and len(tail["t"]):
                 t = np.asarray(tail["t"], float)
                 new = t > f[TIME][-1] if f[TIME].shape[0] else np.ones(len(t), bool)
@@ -414,14 +429,19 @@ def read_trajectory(path, records: bool = True) -> dict:
             old_layout = "t" in f and TIME not in f
             if records and (old_layout or TIME in f):
                 name = (lambda k: k) if sources or old_layout else _stored  # parts: plain names
-                out.update({k: np.concatenate([s[name(k)][()] for s in sources or [f]])
-                            for k in RECORD_FIELDS})
+                have = [s for s in sources or [f]]
+                out.update({k: np.concatenate([s[name(k)][()] for s in have])
+                            for k in RECORD_FIELDS if k not in ADDED_FIELDS
+                            or all(name(k) in s for s in have)})
             if records and "final_state" in f:
                 out["final_state"] = f["final_state"][()]
     except (OSError, KeyError, ValueError, TypeError) as exc:
         raise bad(exc) from None
     if "t" in out:
         m, n = len(out["t"]), np.shape(out["positions"])[1:2]
+        for k, fill in ADDED_FIELDS.items():  # a file from before these fields
+            if k not in out and n:
+                out[k] = np.full((m, *RECORD_FIELDS[k][0](n[0] - 1)), fill)
         for name, (shape, _) in RECORD_FIELDS.items():
             if not n or out[name].shape != (m,) + shape(n[0] - 1) or out[name].dtype.kind != "f":
                 raise bad(f"dataset {name} has shape {out[name].shape}")

@@ -38,7 +38,9 @@ from .hydro.rft import pinned_helix, pinned_omega_per_torque
 from .integrate import ATOL_PER_RTOL
 from .integrate.base import STEPPERS, make_stepper
 from .motor import Boundary, Motor
-from .params import Params, check_choice, check_range, check_real, positive
+from .params import EndLoad, Params, Polymorphism, check_choice, check_range, check_real, positive
+from .rod import polymorph as PM
+from .rod import kernels as K
 from .rod.model import RodModel, angles, positions, state_size
 from .trajectory import COMPLETE, OutputError, RunFiles, Trajectory
 
@@ -152,6 +154,11 @@ class Simulator:
     hydrodynamics : the filament's mobility (:class:`~flagellum.hydro.dynamics.Hydrodynamics`,
         default local RFT); a nonlocal one is frozen over the chunks between chart checks
         and rebuilt as it says.
+    end_load : a force or a moving trap on the free end (:class:`~flagellum.params.EndLoad`).
+    polymorphism : a multistable filament (:class:`~flagellum.params.Polymorphism`,
+        :mod:`flagellum.rod.polymorph`); None (default): the single-state filament. Its
+        order parameters ``phi`` (one per joint) advance between the integration chunks at
+        the rod's frozen strains; a thermal run adds their noise.
 
     Notes
     -----
@@ -164,8 +171,11 @@ class Simulator:
     def __init__(self, params: Params | None = None, motor: Motor | None = None,
                  boundary: Boundary | None = None, *, thermal: bool = False,
                  seed: int | None = None, solver: SolverOptions | None = None,
-                 hydrodynamics: Hydrodynamics | None = None):
+                 hydrodynamics: Hydrodynamics | None = None, end_load: EndLoad | None = None,
+                 polymorphism: Polymorphism | None = None):
         self.params = params or Params()
+        self.end_load = end_load if end_load is not None and end_load.active else None
+        self.polymorphism = polymorphism
         self.hydrodynamics = hydrodynamics or Hydrodynamics()
         self.motor = motor or Motor()
         self.boundary = boundary or Boundary()
@@ -182,14 +192,72 @@ class Simulator:
         omega = 0.0 if f == "lab" else (float(f) if not isinstance(f, str) else
                                          pinned_omega_per_torque(self.params) * final)
         self.model = RodModel(self.params, self.motor, self.boundary, omega_frame=omega,
-                              hydrodynamics=self.hydrodynamics)
+                              hydrodynamics=self.hydrodynamics, end_load=self.end_load,
+                              segments=polymorphism is not None)
         self.t = 0.0
         self.frame_angle = 0.0
-        self.y = self.model.initial_state(pinned_helix(self.params, self.boundary))
+        self.phi = np.zeros(self.model.n)  #: polymorphic order parameter of each joint
+        self._phi_rng = None
+        if polymorphism is None:
+            self.y = self.model.initial_state(pinned_helix(self.params, self.boundary))
+        else:
+            self.y = self._polymorphic_start()
         self._rng_state = None
         self._last_motor = None
         self.wall_seconds = 0.0
         self.steps = 0
+
+    # -- polymorphism -------------------------------------------------------------------
+    def _polymorphic_start(self) -> np.ndarray:
+        """The stress-free rod of the initial forms: the first joint's form as the pinned helix
+        (:func:`~flagellum.hydro.rft.pinned_helix`), continued joint by joint."""
+        from .helix import DiscreteHelix, discrete_rod
+
+        pm, f = self.polymorphism, self.params.filament
+        self.phi = np.array(pm.initial_states(self.model.n), float)
+        self._forms = tuple(np.array(v) for v in pm.strains(f))
+        kap, tau = self._intrinsic()
+        first = self.params.replace(kappa0=float(kap[0]), tau0=abs(float(tau[0])),
+                                    handedness="right" if tau[0] >= 0 else "left")
+        dh = pinned_helix(first, self.boundary)
+        pos, frames = discrete_rod(dh.frames[0], kap, tau, self.model.h, dh.positions[0])
+        self.model.set_intrinsic(kap, tau)
+        self._phi_rng = np.random.default_rng([self.seed, 20]) if self.thermal else None
+        return self.model.initial_state(DiscreteHelix(pos, frames, dh.axis_point, dh.axis_direction,
+                                                      dh.radius, dh.pitch, dh.segment_length))
+
+    def _intrinsic(self):
+        kap, tau = np.empty(self.model.n), np.empty(self.model.n)
+        PM.intrinsic(self.phi, *self._forms, kap, tau)
+        return kap, tau
+
+    def _phi_constants(self):
+        pm, f = self.polymorphism, self.params.filament
+        k = 64.0 * pm.barrier
+        return (self.model.h, np.array(pm.energies, float), k, pm.wall_stiffness, pm.friction,
+                f.bend_rigidity, f.twist_rigidity)
+
+    @property
+    def phi_relaxation_time(self) -> float:
+        """ζ/k [s]: the relaxation time of a well (the longest chunk between φ updates)."""
+        return self.polymorphism.friction / (64.0 * self.polymorphism.barrier)
+
+    def _transform(self, y: np.ndarray, dt: float) -> bool:
+        """Advance φ by dt at the strains of y; True if the intrinsic shape changed."""
+        h, eps, k, D, zeta, A, C = self._phi_constants()
+        kap_f, tau_f = self._forms
+        sub = PM.stable_substep(h, k, D, zeta, kap_f, tau_f, A, C)
+        n_sub = max(1, math.ceil(dt / sub))
+        kT = self.params.fluid.kT if self.thermal else 0.0
+        normals = (self._phi_rng.standard_normal((n_sub, self.model.n)) if kT > 0
+                   else np.zeros((1, 1)))
+        old = self.phi.copy()
+        PM.advance(self.phi, dt, n_sub, h, eps, k, D, zeta, A, C, self.model.joint_strains(y),
+                   kap_f, tau_f, True, kT, normals)
+        if np.array_equal(old, self.phi):
+            return False
+        self.model.set_intrinsic(*self._intrinsic())
+        return True
 
     # -- state ------------------------------------------------------------------------
     @classmethod
@@ -261,7 +329,9 @@ class Simulator:
         return {"params": self.params.to_dict(), "motor": asdict(self.motor),
                 "boundary": asdict(self.boundary), "solver": asdict(self.solver),
                 "thermal": self.thermal, "seed": self.seed,
-                "hydrodynamics": self.hydrodynamics.to_dict()}
+                "hydrodynamics": self.hydrodynamics.to_dict(),
+                **({"end_load": asdict(self.end_load)} if self.end_load else {}),
+                **({"polymorphism": asdict(self.polymorphism)} if self.polymorphism else {})}
 
     @classmethod
     def from_spec(cls, spec: dict) -> "Simulator":
@@ -273,7 +343,9 @@ class Simulator:
                 motor[k] = tuple(motor[k])
         return cls(Params.from_dict(spec["params"]), Motor(**motor), Boundary(**spec["boundary"]),
                    thermal=spec["thermal"], seed=spec["seed"], solver=SolverOptions(**spec["solver"]),
-                   hydrodynamics=Hydrodynamics.from_dict(spec.get("hydrodynamics")))
+                   hydrodynamics=Hydrodynamics.from_dict(spec.get("hydrodynamics")),
+                   end_load=EndLoad(**spec["end_load"]) if spec.get("end_load") else None,
+                   polymorphism=Polymorphism(**spec["polymorphism"]) if spec.get("polymorphism") else None)
 
     # -- stepping ---------------------------------------------------------------------
     def _stepper(self):
@@ -293,7 +365,9 @@ class Simulator:
                      ("hook_tangent", rot @ u), ("thrust", force[2]), ("anchor_force", force),
                      ("motor_speed", m.last_motor_speed),
                      ("motor_angle", self._motor_angle()), ("torque", m.last_torque),
-                     ("energy", m.last_energy), ("frame_angle", self.frame_angle)):
+                     ("energy", m.last_energy), ("frame_angle", self.frame_angle),
+                     ("end_force", m.end_force(t, y)), ("extension", y[5] - y[-2]),
+                     ("polymorph", self.phi)):
             buf[k].append(np.array(v, float))
 
     def _advance(self, stepper, t_target: float) -> np.ndarray:
@@ -304,6 +378,8 @@ class Simulator:
         if self._last_motor is not None:  # measured motor speed, capped: transients spike it
             rate = max(rate, min(abs(self._last_motor[3]), 3.0 * self._omega_scale))
         chunk = 0.5 / rate
+        if self.polymorphism is not None:  # φ follows the rod between chunks: shorter than ζ/k
+            chunk = min(chunk, 0.5 * self.phi_relaxation_time)
         step = stepper.fixed_step
         if step:  # whole fixed steps: a shortened step would restart BDF2 with an Euler step
             chunk = step * max(1, math.floor(chunk / step))
@@ -313,9 +389,16 @@ class Simulator:
             if t_target - t_next < 0.25 * chunk:
                 t_next = t_target
             self.model.refresh_mobility(y)  # a nonlocal mobility: frozen over the chunk
+            if self.end_load is not None:  # integrators that call the kernels themselves
+                self.model.prm[self.model.iprm[K.I_EXTRA] + K.X_TRAP_Z] = \
+                    self.model.trap_centre(0.5 * (stepper.t + t_next))
+            t_prev = stepper.t
             y = stepper.advance(t_next)
+            reset = self.polymorphism is not None and self._transform(y, t_next - t_prev)
             if t_next < t_target and self.model.rechart(y, threshold=CHART_LIMIT):
                 self.model.refresh_mobility(y, force=True)
+                reset = True
+            if reset:
                 stepper.reset(t_next, y)
         return y
 
@@ -501,13 +584,15 @@ class Simulator:
     def _checkpoint(self, files: RunFiles, plan: dict, n_done: int, wall0: float, steps: int) -> None:
         ref_u, ref_e, ref_m = self.model.charts()
         files.write_checkpoint(
-            {"y": self.y, "ref_u": ref_u, "ref_e": ref_e, "ref_m": ref_m},
+            {"y": self.y, "ref_u": ref_u, "ref_e": ref_e, "ref_m": ref_m,
+             **({"phi": self.phi} if self.polymorphism is not None else {})},
             {"t": self.t, "frame_angle": self.frame_angle, "omega_frame": self.model.omega_frame,
              "n_done": n_done, "n_records": n_done + 1,  # + the initial record
              "plan": json.dumps(plan), "rng_state": json.dumps(self._rng_state),
              "last_motor": json.dumps(self._last_motor),
              "wall_seconds": self.wall_seconds + time.perf_counter() - wall0, "steps": steps,
-             "spec": json.dumps(self.spec())})
+             "spec": json.dumps(self.spec()),
+             **({"phi_rng": json.dumps(self._phi_rng.bit_generator.state)} if self._phi_rng else {})})
 
     @classmethod
     def resume(cls, output: str | Path, progress: bool | None = None) -> tuple["Simulator", Trajectory]:
@@ -564,6 +649,11 @@ class Simulator:
         sim._place(State(arrays["y"], charts, float(a["frame_angle"])), float(a["t"]),
                    float(a["omega_frame"]))
         sim._rng_state = json.loads(a["rng_state"])
+        if "phi" in arrays:
+            sim.phi = np.array(arrays["phi"], float)
+            sim.model.set_intrinsic(*sim._intrinsic())
+            if "phi_rng" in a:
+                sim._phi_rng.bit_generator.state = json.loads(a["phi_rng"])
         last = tuple(json.loads(a["last_motor"]))
         if len(last) == 4:  # (t, raw, angle, rate) of the swing–twist split of the material frame
             t0, _, angle0, rate0 = last

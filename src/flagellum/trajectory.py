@@ -57,6 +57,11 @@ class Trajectory:
         the torque the drive takes, an output).
     energy : (n_t,) elastic energy [pN·µm].
     frame_angle : (n_t,) angle of the computational (co-rotating) frame about e_z [rad].
+    end_force : (n_t,) load pulling the free end along −e_z [pN] (:class:`~flagellum.params.EndLoad`;
+        0 without one).
+    extension : (n_t,) end-to-end extension along the motor axis, z_0 − z_N [µm].
+    polymorph : (n_t, N) polymorphic order parameter of each joint
+        (:mod:`flagellum.rod.polymorph`; 0 for a single-state filament).
     meta : the run's metadata (parameters, solver, provenance:
         :meth:`flagellum.simulator.Simulator.metadata`).
     """
@@ -72,6 +77,9 @@ class Trajectory:
     torque: np.ndarray
     energy: np.ndarray
     frame_angle: np.ndarray
+    end_force: np.ndarray
+    extension: np.ndarray
+    polymorph: np.ndarray
     meta: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -132,6 +140,31 @@ class Trajectory:
         return summarize_run(self.t, self.thrust, self.motor_angle, self.positions, self.energy,
                              self.meta.get("helix_radius", 0.2), t_from, self.torque,
                              self.relative_motor_speed)
+
+    def load_summary(self, t_from: float | None = None) -> dict:
+        """Means over t ≥ ``t_from`` (default: the last half) of the end load [pN], the
+        extension [µm] and the anchor's force along e_z [pN] (in steady state −end_force)."""
+        sel = self._window(t_from)
+        return {"end_force_mean": float(np.mean(self.end_force[sel])),
+                "extension_mean": float(np.mean(self.extension[sel])),
+                "extension_final": float(self.extension[-1])}
+
+    def polymorph_summary(self, forms, t_from: float | None = None) -> dict:
+        """The fraction of the joints in each of ``forms`` (names, in order) and the number of
+        domain walls: means over t ≥ ``t_from`` (default: the last half) and at the end."""
+        from .rod.polymorph import domain_walls, fractions
+
+        sel = self._window(t_from)
+        frac = fractions(self.polymorph, len(forms))
+        return {"form_fractions": {f: float(np.mean(frac[sel, i])) for i, f in enumerate(forms)},
+                "form_fractions_final": {f: float(frac[-1, i]) for i, f in enumerate(forms)},
+                "domain_walls_mean": float(np.mean(domain_walls(self.polymorph[sel]))),
+                "domain_walls_final": int(domain_walls(self.polymorph[-1]))}
+
+    def _window(self, t_from):
+        t0 = self.t[0] + 0.5 * (self.t[-1] - self.t[0]) if t_from is None else t_from
+        sel = self.t >= t0
+        return sel if sel.any() else np.ones(len(self.t), bool)
 
     @property
     def relative_motor_speed(self) -> np.ndarray:

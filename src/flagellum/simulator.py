@@ -202,6 +202,7 @@ class Simulator:
             self.y = self.model.initial_state(pinned_helix(self.params, self.boundary))
         else:
             self.y = self._polymorphic_start()
+        self.model.trap_origin = float(self.y[-2])  # a trap starts at the free end
         self._rng_state = None
         self._last_motor = None
         self.wall_seconds = 0.0
@@ -265,7 +266,8 @@ class Simulator:
                    boundary: Boundary | None = None, *, t: float = 0.0,
                    omega_frame: float | None = None, thermal: bool = False,
                    seed: int | None = None, solver: SolverOptions | None = None,
-                   hydrodynamics: Hydrodynamics | None = None) -> "Simulator":
+                   hydrodynamics: Hydrodynamics | None = None, end_load: EndLoad | None = None,
+                   polymorphism: Polymorphism | None = None) -> "Simulator":
         """A simulator (arguments as for :class:`Simulator`) that starts at time ``t`` [s]
         from ``state``: e.g. a relative equilibrium in its co-rotating frame
         (:func:`flagellum.analysis.stability.relative_equilibrium`, with ``omega_frame``
@@ -275,10 +277,11 @@ class Simulator:
         adapts it from there); None: the one ``solver.frame`` chooses. The motor angle is
         unwrapped afresh from the state's hook frame, and a thermal run's random stream
         starts from ``seed``. A state that does not fit the filament raises
-        :class:`~flagellum.errors.ParameterError`.
+        :class:`~flagellum.errors.ParameterError`. A trap (``end_load``) is centred at the
+        state's free end; the order parameters of ``polymorphism`` start from its ``initial``.
         """
         sim = cls(params, motor, boundary, thermal=thermal, seed=seed, solver=solver,
-                  hydrodynamics=hydrodynamics)
+                  hydrodynamics=hydrodynamics, end_load=end_load, polymorphism=polymorphism)
         sim._place(state, t, omega_frame)
         return sim
 
@@ -299,6 +302,7 @@ class Simulator:
             self.model.set_omega_frame(check_range("omega_frame", omega_frame, -1e6, 1e6, lo_open=False))
         self.y = arrays[0]
         self.model.set_charts(*arrays[1:])
+        self.model.trap_origin = float(self.y[-2])  # a trap starts at the given free end
 
     def state(self) -> State:
         """The current state in the computational frame (a copy)."""
@@ -591,7 +595,7 @@ class Simulator:
              "plan": json.dumps(plan), "rng_state": json.dumps(self._rng_state),
              "last_motor": json.dumps(self._last_motor),
              "wall_seconds": self.wall_seconds + time.perf_counter() - wall0, "steps": steps,
-             "spec": json.dumps(self.spec()),
+             "spec": json.dumps(self.spec()), "trap_origin": self.model.trap_origin,
              **({"phi_rng": json.dumps(self._phi_rng.bit_generator.state)} if self._phi_rng else {})})
 
     @classmethod
@@ -649,6 +653,7 @@ class Simulator:
         sim._place(State(arrays["y"], charts, float(a["frame_angle"])), float(a["t"]),
                    float(a["omega_frame"]))
         sim._rng_state = json.loads(a["rng_state"])
+        sim.model.trap_origin = float(a.get("trap_origin", sim.model.trap_origin))
         if "phi" in arrays:
             sim.phi = np.array(arrays["phi"], float)
             sim.model.set_intrinsic(*sim._intrinsic())

@@ -349,7 +349,7 @@ def polymorph_from_cli(kwargs: dict):
     if forms is None:
         for k, v in vals.items():
             if v is not None:
-                raise ParameterError(f"polymorph-{k.replace('_', '-')}", v,
+                raise ParameterError(f"polymorph_{k}", v,
                                      "given only with --polymorphic")
         return None
     forms = tuple(f.strip() for f in forms.split(","))

@@ -103,7 +103,7 @@ class RodModel:
                              dtype=np.int64)
         self.end_load = end_load if end_load is not None and end_load.active else None
         self.segments = bool(segments)
-        self.trap_origin = 0.0  #: z [µm] of the trap's centre at t = 0 (the initial free end)
+        self.trap_origin = 0.0  #: z [µm] of the trap's centre at t = 0 (the simulator's start)
         if self.end_load is not None or self.segments:  # the kernels' extra block (I_EXTRA)
             load = self.end_load or EndLoad()
             extra = [load.force, load.trap_stiffness, 0.0]
@@ -135,7 +135,6 @@ class RodModel:
         self.ref_u[:] = frames[:, :, 2]
         self.ref_e[:] = frames[:, :, 0]
         self.update_reference_twists(y)
-        self.trap_origin = float(pos[-1, 2])
         return y
 
     # -- end load and per-joint intrinsic shape -----------------------------------------

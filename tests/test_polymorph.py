@@ -157,7 +157,7 @@ def test_one_form_is_the_single_state_filament():
     b = Simulator(SHORT, Motor(0.5), solver=solver, polymorphism=Polymorphism(forms=("normal",))
                   ).run(0.01, save_every=2e-3, progress=False)
     np.testing.assert_allclose(b.positions, a.positions, atol=1e-6)
-    assert np.all(b.polymorph == 0.0) and np.all(a.polymorph == 0.0)
+    assert np.all(b.polymorph == 0.0) and a.polymorph is None and a.polymorph_summary() == {}
 
 
 def test_landscape_wells_barrier_and_rod_drive():
@@ -221,3 +221,33 @@ def test_cli_polymorphic_flags(cli, tmp_path):
     assert_one_line_error(code, err, "polymorph_barrier")
     code, _, err = cli("simulate", "--time", 0.004, "--polymorphic", "normal,spiral")
     assert_one_line_error(code, err, "polymorphic")
+
+
+@pytest.mark.parametrize("thermal", [False, True])
+def test_interrupted_polymorphic_run_resumes_bit_identically(thermal, tmp_path, monkeypatch):
+    """The order parameters and their random stream are in the checkpoint: a run stopped
+    after a checkpoint and resumed writes the same file as one run through."""
+    pm = Polymorphism(forms=("normal", "semicoiled"), energies=(0.0, 1.0),
+                      initial="normal:10,semicoiled:10")
+    kw = dict(thermal=thermal, seed=5, polymorphism=pm,
+              solver=SolverOptions(method="implicit", dt=2e-5) if thermal else None)
+    run = dict(t_end=0.004, save_every=2e-4, checkpoint_every=1e-3, progress=False)
+    ref = Simulator(SHORT, Motor(0.3), **kw).run(output=tmp_path / "ref.h5", **run)
+    calls = {"n": 0}
+    real = Simulator._record
+
+    def record(self, buf):
+        calls["n"] += 1
+        if calls["n"] == 8:  # after the first checkpoint (records 0 … 5)
+            raise KeyboardInterrupt
+        real(self, buf)
+
+    monkeypatch.setattr(Simulator, "_record", record)
+    out = tmp_path / "run.h5"
+    with pytest.raises(KeyboardInterrupt):
+        Simulator(SHORT, Motor(0.3), **kw).run(output=out, **run)
+    monkeypatch.undo()
+    _, tr = Simulator.resume(out, progress=False)
+    np.testing.assert_array_equal(tr.polymorph, ref.polymorph)
+    np.testing.assert_array_equal(tr.positions, ref.positions)
+    assert tr.meta["polymorph_forms"] == "normal,semicoiled"

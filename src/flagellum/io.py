@@ -183,10 +183,12 @@ RECORD_FIELDS = {
     "frame_angle": (lambda n: (), "f8"),
     "end_force": (lambda n: (), "f8"),
     "extension": (lambda n: (), "f8"),
-    "polymorph": (lambda n: (n,), "f8"),
 }
 #: record fields that files written before they existed lack: read as these values
-ADDED_FIELDS = {"end_force": 0.0, "extension": math.nan, "polymorph": 0.0}
+ADDED_FIELDS = {"end_force": 0.0, "extension": math.nan}
+#: the record fields of a polymorphic run only (its files have the attribute POLYMORPH_ATTR)
+POLYMORPH_FIELDS = {"polymorph": (lambda n: (n,), "f8")}
+POLYMORPH_ATTR = "polymorph_forms"
 
 #: the record fields in a file: name → (dimensions of one record, CF units, long_name); the
 #: first dimension of every field is ``time``. Units are UDUNITS strings (µm, pN, s, rad).
@@ -205,19 +207,34 @@ RECORD_META = {
     "frame_angle": ((), "rad", "angle of the co-rotating computational frame about e_z"),
     "end_force": ((), "pN", "load pulling the free end along -e_z (extending the filament)"),
     "extension": ((), "um", "end-to-end extension along the motor axis, z(bead 0) - z(last bead)"),
+}
+POLYMORPH_META = {
     "polymorph": (("segment",), "1", "polymorphic order parameter of each joint (integers: the "
-                                    "forms in the order given, 0 the first; single-state runs 0)"),
+                                    "forms of the attribute polymorph_forms in order, 0 the first)"),
 }
 #: the time coordinate's name in a file (``t`` in the records)
 TIME = "time"
 #: coordinate variables other than time: name → (values for n segments, attributes)
 COORDINATES = {
     "bead": (lambda n: np.arange(n + 1), {"units": "1", "long_name": "bead index (0: at the motor)"}),
-    "segment": (lambda n: np.arange(1, n + 1), {"units": "1", "long_name": "joint index: joint j "
-                                                "sets bond j relative to bond j-1 (bond 0: the hook frame)"}),
     "xyz": (lambda n: np.array(["x", "y", "z"]),
             {"long_name": "Cartesian component in the lab frame (e_z: the motor axis)"}),
 }
+POLYMORPH_COORDINATES = {
+    "segment": (lambda n: np.arange(1, n + 1), {"units": "1", "long_name": "joint index: joint j "
+                                                "sets bond j relative to bond j-1 (bond 0: the hook frame)"}),
+}
+
+
+def record_layout(attrs: dict) -> tuple[dict, dict, dict]:
+    """(fields, meta, coordinates) of the records of a file with attributes ``attrs``: those
+    of every run, plus the polymorphic state where ``attrs`` name the forms."""
+    if POLYMORPH_ATTR in attrs:
+        return ({**RECORD_FIELDS, **POLYMORPH_FIELDS}, {**RECORD_META, **POLYMORPH_META},
+                {**COORDINATES, **POLYMORPH_COORDINATES})
+    return RECORD_FIELDS, RECORD_META, COORDINATES
+
+
 TIME_ATTRS = {"standard_name": "time", "axis": "T"}
 #: ``final_state``: the simulator's state vector (no single unit: µm and rad)
 STATE_ATTRS = {"long_name": "simulator state at the end of the run (bead 0's position, then "
@@ -258,24 +275,25 @@ def _init_datasets(f, n: int, attrs: dict) -> None:
     import h5py
 
     f.attrs.update(netcdf_attrs({**CONVENTIONS, **attrs}))
-    for name, (shape, dt) in RECORD_FIELDS.items():
+    fields, meta, coordinates = record_layout(attrs)
+    for name, (shape, dt) in fields.items():
         s = shape(n)
         ds = f.create_dataset(_stored(name), shape=(0,) + s, maxshape=(None,) + s, dtype=dt,
                               chunks=(max(1, min(1024, 65536 // max(1, int(np.prod(s))))),) + s)
-        _, units, long_name = RECORD_META[name]
+        _, units, long_name = meta[name]
         ds.attrs.update({"units": units, "long_name": long_name, **(TIME_ATTRS if name == "t" else {})})
-    for name, (values, coord_attrs) in COORDINATES.items():
+    for name, (values, coord_attrs) in coordinates.items():
         v = values(n)
         if v.dtype.kind == "U":
             f.create_dataset(name, data=v.astype(object), dtype=h5py.string_dtype())
         else:
             f.create_dataset(name, data=v)
         f[name].attrs.update(coord_attrs)
-    for dim in (TIME, *COORDINATES):
+    for dim in (TIME, *coordinates):
         f[dim].make_scale(dim)
-    for name in RECORD_FIELDS:
+    for name in fields:
         if name != "t":
-            for axis, dim in enumerate((TIME, *RECORD_META[name][0])):
+            for axis, dim in enumerate((TIME, *meta[name][0])):
                 f[name].dims[axis].attach_scale(f[dim])
 
 
@@ -291,7 +309,7 @@ def _write_state(f, state) -> None:
 
 def _append(f, records: dict) -> None:
     n_old, m = f[TIME].shape[0], len(records["t"])
-    for name in RECORD_FIELDS:
+    for name in records:
         ds = f[_stored(name)]
         ds.resize(n_old + m, axis=0)
         ds[n_old:] = records[name]
@@ -337,7 +355,7 @@ def write_part(path, index: int, records: dict) -> None:
 
     with atomic_path(part_path(path, index)) as tmp:
         with h5py.File(tmp, "w") as f:
-            for name in RECORD_FIELDS:
+            for name in records:
                 f[name] = np.asarray(records[name], float)
 
 
@@ -390,6 +408,7 @@ def finish_trajectory(path, tail: dict | None = None, final_state=None,
 
     with h5py.File(path, "r") as f:
         old, n = dict(f.attrs), _n_segments(f)
+    fields = record_layout(old)[0]
     with atomic_path(path) as tmp:
         with h5py.File(tmp, "w") as f:
             _init_datasets(f, n, {**old, **(attrs or {})})
@@ -397,8 +416,8 @@ def finish_trajectory(path, tail: dict | None = None, final_state=None,
                 with h5py.File(p, "r") as part:
                     m = part["t"].shape[0]
                     _append(f, {k: part[k][()] if k in part else
-                                np.full((m, *RECORD_FIELDS[k][0](n)), ADDED_FIELDS[k])
-                                for k in RECORD_FIELDS})
+                                np.full((m, *fields[k][0](n)), ADDED_FIELDS[k])
+                                for k in fields})
             if tail is not None and len(tail["t"]):
                 t = np.asarray(tail["t"], float)
                 new = t > f[TIME][-1] if f[TIME].shape[0] else np.ones(len(t), bool)
@@ -431,7 +450,7 @@ def read_trajectory(path, records: bool = True) -> dict:
                 name = (lambda k: k) if sources or old_layout else _stored  # parts: plain names
                 have = [s for s in sources or [f]]
                 out.update({k: np.concatenate([s[name(k)][()] for s in have])
-                            for k in RECORD_FIELDS if k not in ADDED_FIELDS
+                            for k in record_layout(out["attrs"])[0] if k not in ADDED_FIELDS
                             or all(name(k) in s for s in have)})
             if records and "final_state" in f:
                 out["final_state"] = f["final_state"][()]
@@ -442,7 +461,7 @@ def read_trajectory(path, records: bool = True) -> dict:
         for k, fill in ADDED_FIELDS.items():  # a file from before these fields
             if k not in out and n:
                 out[k] = np.full((m, *RECORD_FIELDS[k][0](n[0] - 1)), fill)
-        for name, (shape, _) in RECORD_FIELDS.items():
+        for name, (shape, _) in record_layout(out["attrs"])[0].items():
             if not n or out[name].shape != (m,) + shape(n[0] - 1) or out[name].dtype.kind != "f":
                 raise bad(f"dataset {name} has shape {out[name].shape}")
     return out

@@ -326,7 +326,9 @@ class Simulator:
                 "hydrodynamics": self.hydrodynamics.model,
                 "helix_radius": Helix.from_filament(self.params.filament).radius,
                 "segments": self.model.n,
-                "body_rotation_per_torque": self.model.body_rotation_per_torque, **io.provenance()}
+                "body_rotation_per_torque": self.model.body_rotation_per_torque,
+                **({io.POLYMORPH_ATTR: ",".join(self.polymorphism.forms)} if self.polymorphism else {}),
+                **io.provenance()}
 
     def spec(self) -> dict:
         """Everything needed to rebuild this simulator (JSON-serializable)."""
@@ -370,9 +372,10 @@ class Simulator:
                      ("motor_speed", m.last_motor_speed),
                      ("motor_angle", self._motor_angle()), ("torque", m.last_torque),
                      ("energy", m.last_energy), ("frame_angle", self.frame_angle),
-                     ("end_force", m.end_force(t, y)), ("extension", y[5] - y[-2]),
-                     ("polymorph", self.phi)):
+                     ("end_force", m.end_force(t, y)), ("extension", y[5] - y[-2])):
             buf[k].append(np.array(v, float))
+        if self.polymorphism is not None:
+            buf["polymorph"].append(self.phi.copy())
 
     def _advance(self, stepper, t_target: float) -> np.ndarray:
         """Advance to t_target in chunks short enough that no tangent can turn by more than
@@ -519,8 +522,9 @@ class Simulator:
         times = self._times(plan)
         flush_every = plan["flush_every"]
         progress = show_progress(progress)
-        buf = {k: [] for k in io.RECORD_FIELDS}
-        kept = {k: [] for k in io.RECORD_FIELDS} if files is None else None
+        fields = io.record_layout(self.metadata() if self.polymorphism else {})[0]
+        buf = {k: [] for k in fields}
+        kept = {k: [] for k in fields} if files is None else None
         if start == 0:
             self._record(buf)
         stepper = self._stepper()

@@ -60,8 +60,9 @@ class Trajectory:
     end_force : (n_t,) load pulling the free end along −e_z [pN] (:class:`~flagellum.params.EndLoad`;
         0 without one).
     extension : (n_t,) end-to-end extension along the motor axis, z_0 − z_N [µm].
-    polymorph : (n_t, N) polymorphic order parameter of each joint
-        (:mod:`flagellum.rod.polymorph`; 0 for a single-state filament).
+    polymorph : (n_t, N) polymorphic order parameter of each joint of a polymorphic run
+        (:mod:`flagellum.rod.polymorph`; its forms in ``meta["polymorph_forms"]``); None for
+        a single-state filament.
     meta : the run's metadata (parameters, solver, provenance:
         :meth:`flagellum.simulator.Simulator.metadata`).
     """
@@ -79,22 +80,26 @@ class Trajectory:
     frame_angle: np.ndarray
     end_force: np.ndarray
     extension: np.ndarray
-    polymorph: np.ndarray
     meta: dict = field(default_factory=dict)
+    polymorph: np.ndarray | None = None
 
     def __post_init__(self):
         for name in io.RECORD_FIELDS:
             setattr(self, name, np.asarray(getattr(self, name)))
+        if self.polymorph is not None:
+            self.polymorph = np.asarray(self.polymorph)
 
     @classmethod
     def from_records(cls, records: dict, meta: dict) -> "Trajectory":
         """From a dict with (at least) the record fields, e.g. :func:`flagellum.io.read_trajectory`."""
-        return cls(**{k: records[k] for k in io.RECORD_FIELDS}, meta=meta)
+        return cls(**{k: records[k] for k in io.RECORD_FIELDS}, meta=meta,
+                   polymorph=records.get("polymorph"))
 
     @property
     def records(self) -> dict:
         """The record fields as a dict (name → array)."""
-        return {k: getattr(self, k) for k in io.RECORD_FIELDS}
+        extra = {} if self.polymorph is None else {"polymorph": self.polymorph}
+        return {**{k: getattr(self, k) for k in io.RECORD_FIELDS}, **extra}
 
     @property
     def y(self):
@@ -117,14 +122,15 @@ class Trajectory:
 
         n = self.positions.shape[1] - 1 if self.positions.ndim == 3 else int(self.meta.get("segments", 0))
         data = {}
-        for name, (shape, _) in io.RECORD_FIELDS.items():
+        fields, meta, coordinates = io.record_layout(self.meta if self.polymorph is not None else {})
+        for name, (shape, _) in fields.items():
             if name != "t":
-                dims, units, long_name = io.RECORD_META[name]
+                dims, units, long_name = meta[name]
                 values = getattr(self, name).reshape((len(self.t), *shape(n)))
                 data[name] = ((io.TIME, *dims), values, {"units": units, "long_name": long_name})
         _, units, long_name = io.RECORD_META["t"]
         coords = {io.TIME: (io.TIME, self.t, {"units": units, "long_name": long_name, **io.TIME_ATTRS}),
-                  **{c: (c, values(n), attrs) for c, (values, attrs) in io.COORDINATES.items()}}
+                  **{c: (c, values(n), attrs) for c, (values, attrs) in coordinates.items()}}
         return xr.Dataset(data, coords=coords, attrs=io.netcdf_attrs({**io.CONVENTIONS, **self.meta}))
 
     def summary(self, t_from: float | None = None) -> RunSummary:
@@ -149,11 +155,15 @@ class Trajectory:
                 "extension_mean": float(np.mean(self.extension[sel])),
                 "extension_final": float(self.extension[-1])}
 
-    def polymorph_summary(self, forms, t_from: float | None = None) -> dict:
-        """The fraction of the joints in each of ``forms`` (names, in order) and the number of
-        domain walls: means over t ≥ ``t_from`` (default: the last half) and at the end."""
+    def polymorph_summary(self, t_from: float | None = None) -> dict:
+        """The fraction of the joints in each form (``meta["polymorph_forms"]``) and the number
+        of domain walls: means over t ≥ ``t_from`` (default: the last half) and at the end;
+        empty for a single-state run."""
         from .rod.polymorph import domain_walls, fractions
 
+        if self.polymorph is None:
+            return {}
+        forms = str(self.meta[io.POLYMORPH_ATTR]).split(",")
         sel = self._window(t_from)
         frac = fractions(self.polymorph, len(forms))
         return {"form_fractions": {f: float(np.mean(frac[sel, i])) for i, f in enumerate(forms)},

@@ -92,7 +92,7 @@ def _report_run(sim, traj, average_from, output, as_json):
     if sim.end_load is not None:
         out.update(traj.load_summary(average_from))
     if sim.polymorphism is not None:
-        out.update(traj.polymorph_summary(sim.polymorphism.forms, average_from))
+        out.update(traj.polymorph_summary(average_from))
     if output:
         out["output"] = str(output)
     if as_json:

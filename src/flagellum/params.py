@@ -281,8 +281,9 @@ class Polymorphism:
     for equal ε, the barrier between them is ``barrier`` high. ``energies`` ε [pN] (default 0
     for every form). Domain walls cost D/2 (∂φ/∂s)² per length, D = ``wall_stiffness``
     [pN·µm²]; ``friction`` ζ [pN·s] sets the overdamped dynamics ζ ∂φ/∂t = −δE/δφ (+ noise of
-    a thermal run). ``initial``: the starting form of every joint, or ``"form:count,…"``
-    along the filament from the motor (counts summing to the segment count).
+    a thermal run). ``initial``: the starting form of every joint (default: the first
+    form), or ``"form:count,…"`` along the filament from the motor (counts summing to the
+    segment count).
     """
 
     forms: tuple = ("normal", "semicoiled", "curly1")
@@ -290,7 +291,7 @@ class Polymorphism:
     barrier: float = 1.0
     wall_stiffness: float = 8.0
     friction: float = 0.1
-    initial: str = "normal"
+    initial: str | None = None
 
     def __post_init__(self):
         forms = tuple(self.forms) if not isinstance(self.forms, str) else tuple(
@@ -313,6 +314,8 @@ class Polymorphism:
             raise ParameterError("polymorph_energies", ",".join(map(str, e)), "neighbouring "
                                  f"differences below 16/3 × barrier = {k / 12:g} pN (both forms minima)")
         _set(self, "energies", e)
+        if self.initial is None:
+            _set(self, "initial", forms[0])
         if not isinstance(self.initial, str):
             raise ParameterError("polymorph_initial", self.initial, "a form or 'form:count,…'")
 

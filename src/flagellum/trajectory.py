@@ -81,19 +81,20 @@ class Trajectory:
     end_force: np.ndarray
     extension: np.ndarray
     meta: dict = field(default_factory=dict)
-    polymorph: np.ndarray | None = None
+    #: (n_t, N) or None: set from a polymorphic run's records (not a field of every run)
+    polymorph = None
 
     def __post_init__(self):
         for name in io.RECORD_FIELDS:
             setattr(self, name, np.asarray(getattr(self, name)))
-        if self.polymorph is not None:
-            self.polymorph = np.asarray(self.polymorph)
 
     @classmethod
     def from_records(cls, records: dict, meta: dict) -> "Trajectory":
         """From a dict with (at least) the record fields, e.g. :func:`flagellum.io.read_trajectory`."""
-        return cls(**{k: records[k] for k in io.RECORD_FIELDS}, meta=meta,
-                   polymorph=records.get("polymorph"))
+        traj = cls(**{k: records[k] for k in io.RECORD_FIELDS}, meta=meta)
+        if records.get("polymorph") is not None:
+            traj.polymorph = np.asarray(records["polymorph"])
+        return traj
 
     @property
     def records(self) -> dict:

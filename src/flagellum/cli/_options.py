@@ -355,6 +355,4 @@ def polymorph_from_cli(kwargs: dict):
     forms = tuple(f.strip() for f in forms.split(","))
     if vals["energies"] is not None:
         vals["energies"] = _floats("polymorph_energies", vals["energies"])
-    if vals["initial"] is None:
-        vals["initial"] = forms[0]
     return Polymorphism(forms=forms, **{k: v for k, v in vals.items() if v is not None})

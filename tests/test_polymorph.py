@@ -41,7 +41,7 @@ def test_pitch_and_diameter_convert_to_curvature_and_torsion_and_back():
 @pytest.mark.parametrize("form", FORMS)
 def test_each_form_is_a_stress_free_equilibrium(form):
     """A filament built in one form has zero elastic energy, zero force on every bead and
-    zero velocity; in a run it stays in that form (φ exactly at the form's integer) with
+    zero velocity; in a run it stays in that form (φ at the form's integer to rounding) with
     zero anchor force."""
     pm = Polymorphism(initial=form)
     sim = Simulator(SHORT, Motor(0.0), polymorphism=pm)
@@ -52,7 +52,7 @@ def test_each_form_is_a_stress_free_equilibrium(form):
     assert np.abs(m.rhs(0.0, sim.y)).max() < 1e-5  # µm/s, rad/s
     helix = Helix(*[v[FORMS.index(form)] for v in pm.strains(SHORT.filament)], 4.0)
     tr = sim.run(0.01, save_every=2e-3, progress=False)
-    assert np.all(tr.polymorph == FORMS.index(form))
+    assert np.abs(tr.polymorph - FORMS.index(form)).max() < 1e-12  # rounding of the strains
     assert np.abs(tr.anchor_force).max() < 1e-8
     np.testing.assert_allclose(tr.positions[-1], tr.positions[0], atol=1e-9)
     # the stress-free shape is the form's discrete helix: its end-to-end distance

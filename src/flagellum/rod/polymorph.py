@@ -66,11 +66,13 @@ def form_strains(phi, kap, tau):
     m_last = kap.shape[0] - 1
     if m_last == 0:
         return kap[0], tau[0], 0.0, 0.0
-    if phi <= 0.0:
+    if phi < 0.0:
         return kap[0], tau[0], 0.0, 0.0
-    if phi >= m_last:
+    if phi > m_last:
         return kap[m_last], tau[m_last], 0.0, 0.0
-    m = int(math.floor(phi))
+    # at a form itself the slope towards the next form (the last: from the one before), so
+    # that stress acts on a joint sitting exactly in its well
+    m = min(int(math.floor(phi)), m_last - 1)
     x = phi - m
     dk, dt = kap[m + 1] - kap[m], tau[m + 1] - tau[m]
     return kap[m] + x * dk, tau[m] + x * dt, dk, dt

@@ -251,3 +251,20 @@ def test_interrupted_polymorphic_run_resumes_bit_identically(thermal, tmp_path, 
     np.testing.assert_array_equal(tr.polymorph, ref.polymorph)
     np.testing.assert_array_equal(tr.positions, ref.positions)
     assert tr.meta["polymorph_forms"] == "normal,semicoiled"
+
+
+def test_a_state_carries_the_order_parameters_into_the_next_stage():
+    """Protocols in stages (pull up then down, reverse then forward): from_state continues
+    with the order parameters of the state, exactly as one run through."""
+    pm = Polymorphism(forms=("normal", "semicoiled"), energies=(0.0, 1.0),
+                      initial="normal:10,semicoiled:10")
+    one = Simulator(SHORT, Motor(0.0), polymorphism=pm)
+    whole = one.run(0.004, save_every=1e-3, progress=False)
+    first = Simulator(SHORT, Motor(0.0), polymorphism=pm)
+    first.run(0.002, save_every=1e-3, progress=False)
+    st = first.state()
+    assert st.phi is not None and not np.array_equal(st.phi, pm.initial_states(20))
+    second = Simulator.from_state(st, SHORT, Motor(0.0), t=0.002, polymorphism=pm)
+    rest = second.run(0.004, save_every=1e-3, progress=False)
+    np.testing.assert_allclose(rest.polymorph[-1], whole.polymorph[-1], atol=1e-6)
+    assert Simulator(SHORT, Motor(0.0)).state().phi is None

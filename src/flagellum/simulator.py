@@ -110,11 +110,15 @@ class State:
         (:meth:`flagellum.rod.model.RodModel.charts`) in the same frame; the material
         angles in y are measured against them.
     frame_angle : [rad]; 0 when y and the charts are in the lab frame.
+    phi : (N,) the polymorphic order parameters of the joints (a polymorphic simulator's
+        :meth:`Simulator.state`); None: a polymorphic simulator started from this state
+        takes those of its ``polymorphism.initial``.
     """
 
     y: np.ndarray
     charts: tuple
     frame_angle: float = 0.0
+    phi: np.ndarray | None = None
 
 
 def check_setup(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynamics,
@@ -278,7 +282,8 @@ class Simulator:
         unwrapped afresh from the state's hook frame, and a thermal run's random stream
         starts from ``seed``. A state that does not fit the filament raises
         :class:`~flagellum.errors.ParameterError`. A trap (``end_load``) is centred at the
-        state's free end; the order parameters of ``polymorphism`` start from its ``initial``.
+        state's free end; the order parameters of ``polymorphism`` are the state's ``phi``,
+        or (None) those of its ``initial``.
         """
         sim = cls(params, motor, boundary, thermal=thermal, seed=seed, solver=solver,
                   hydrodynamics=hydrodynamics, end_load=end_load, polymorphism=polymorphism)
@@ -303,10 +308,21 @@ class Simulator:
         self.y = arrays[0]
         self.model.set_charts(*arrays[1:])
         self.model.trap_origin = float(self.y[-2])  # a trap starts at the given free end
+        phi = getattr(state, "phi", None)
+        if phi is not None and self.polymorphism is not None:
+            phi = np.array(phi, float)
+            if phi.shape != (self.model.n,) or not np.all(np.isfinite(phi)):
+                raise ParameterError("state", f"phi of shape {phi.shape}",
+                                     f"finite order parameters of shape ({self.model.n},)")
+            self.phi = phi
+            self.model.set_intrinsic(*self._intrinsic())
 
     def state(self) -> State:
         """The current state in the computational frame (a copy)."""
-        return State(self.y.copy(), self.model.charts(), self.frame_angle)
+        return State(self.y.copy(), self.model.charts(), self.frame_angle, self._phi_copy())
+
+    def _phi_copy(self):
+        return self.phi.copy() if self.polymorphism is not None else None
 
     def lab_state(self) -> State:
         """The current state turned into the lab frame (``frame_angle`` 0)."""
@@ -315,7 +331,7 @@ class Simulator:
         y[:3] = _rotate_z(y[:3], a)
         body = y[3:].reshape(-1, 4)
         body[:, :3] = _rotate_z(body[:, :3], a)
-        return State(y, (_rotate_z(ref_u, a), _rotate_z(ref_e, a), ref_m))
+        return State(y, (_rotate_z(ref_u, a), _rotate_z(ref_e, a), ref_m), phi=self._phi_copy())
 
     # -- metadata ---------------------------------------------------------------------
     def metadata(self) -> dict:

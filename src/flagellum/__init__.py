@@ -22,6 +22,7 @@ from ._version import __version__
 _EXPORTS = {
     "simulate": "api",
     "Params": "params", "Filament": "params", "Fluid": "params", "Friction": "params",
+    "EndLoad": "params", "Polymorphism": "params",
     "Motor": "motor", "Boundary": "motor",
     "Simulator": "simulator", "SolverOptions": "simulator",
     "Trajectory": "trajectory", "open_trajectory": "trajectory",

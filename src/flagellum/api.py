@@ -13,7 +13,7 @@ from pathlib import Path
 
 from .errors import ParameterError
 from .motor import Boundary, Motor
-from .params import Params, positive
+from .params import EndLoad, Params, Polymorphism, positive
 from .simulator import Simulator, SolverOptions
 from .trajectory import Trajectory
 
@@ -27,6 +27,7 @@ def simulate(torque: float = 1.0, time: float = 0.3, *, save_every: float | None
              scheme: str | None = None, theta: float | None = None, frame: str | float = "auto",
              output: str | Path | None = None, checkpoint_every: float | None = None,
              overwrite: bool = False, progress: bool | None = None, params: Params | dict | None = None,
+             end_load: EndLoad | None = None, polymorphism: Polymorphism | None = None,
              **overrides) -> Trajectory:
     """Simulate the motor-driven filament from the stress-free helix (paper Sec. 2) and
     return its :class:`~flagellum.trajectory.Trajectory` (lab frame).
@@ -80,6 +81,9 @@ def simulate(torque: float = 1.0, time: float = 0.3, *, save_every: float | None
         terminal or a notebook).
     params : the filament and fluid (:class:`~flagellum.params.Params`, or a dict of flat
         names as below); default: the paper's filament in water.
+    end_load : a force or a moving trap on the free end (:class:`~flagellum.params.EndLoad`).
+    polymorphism : a multistable filament (:class:`~flagellum.params.Polymorphism`);
+        default: the single-state filament.
     **overrides : parameters by their flat names, as in ``Params.from_flat`` and the CLI
         flags: ``kappa0``, ``tau0`` [1/µm], ``handedness``, ``bend_rigidity``,
         ``twist_rigidity`` [pN·µm²], ``stretch_modulus`` [pN], ``length``,
@@ -99,7 +103,7 @@ def simulate(torque: float = 1.0, time: float = 0.3, *, save_every: float | None
                                    hook_stiffness=hook_stiffness, body_radius=body_radius,
                                    body_aspect=body_aspect, motor_offset=motor_offset)
     sim = Simulator(model, Motor(torque, ramp_time=ramp_time), boundary, thermal=thermal,
-                    seed=seed, solver=solver)
+                    seed=seed, solver=solver, end_load=end_load, polymorphism=polymorphism)
     time = positive("time", time, 1e6)
     return sim.run(time, save_every=save_every if save_every is not None else time / 300,
                    output=output, progress=progress, checkpoint_every=checkpoint_every,

@@ -210,3 +210,19 @@ def _rot_about(n: np.ndarray, angle: float) -> np.ndarray:
     n = n / np.linalg.norm(n)
     k = np.array([[0, -n[2], n[1]], [n[2], 0, -n[0]], [-n[1], n[0], 0]])
     return np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
+
+
+def discrete_rod(frame0: np.ndarray, kappa, tau, h: float, origin=(0.0, 0.0, 0.0)):
+    """(positions (N+1, 3), frames (N+1, 3, 3)) of the stress-free discrete rod whose joint j
+    has intrinsic curvature ``kappa[j]`` and torsion ``tau[j]``: D_{j+1} = D_j R_z(τ_j h)
+    R_y(κ_j h) from the hook frame ``frame0`` (the construction of :func:`discrete_helix`,
+    joint by joint), bead 0 at ``origin``."""
+    n = len(kappa)
+    frames = np.empty((n + 1, 3, 3))
+    frames[0] = frame0
+    for j in range(n):
+        frames[j + 1] = frames[j] @ rot_z(tau[j] * h) @ rot_y(kappa[j] * h)
+    pos = np.zeros((n + 1, 3))
+    pos[0] = origin
+    pos[1:] = np.asarray(origin) + np.cumsum(h * frames[1:, :, 2], axis=0)
+    return pos, frames

@@ -4,6 +4,7 @@ provenance; the HDF5 (netCDF-4) trajectory files."""
 from __future__ import annotations
 
 import glob
+import math
 import os
 import shutil
 import stat
@@ -250,11 +251,17 @@ RECORD_FIELDS = {
     "body_axis": (lambda n: (3,), "f8"),
     "body_angular_velocity": (lambda n: (3,), "f8"),
     "body_orientation": (lambda n: (3,), "f8"),
+    "end_force": (lambda n: (), "f8"),
+    "extension": (lambda n: (), "f8"),
 }
-#: record fields that files of earlier versions lack: read as NaN
-#: (:meth:`flagellum.trajectory.Trajectory` fills ``relative_motor_speed`` from the others)
-LATER_FIELDS = ("relative_motor_speed", "body_position", "body_axis", "body_angular_velocity",
-                "body_orientation")
+#: record fields that files written before they existed lack: read as these values
+#: (:class:`flagellum.trajectory.Trajectory` fills ``relative_motor_speed`` from the others)
+ADDED_FIELDS = {"relative_motor_speed": math.nan, "body_position": math.nan,
+                "body_axis": math.nan, "body_angular_velocity": math.nan,
+                "body_orientation": math.nan, "end_force": 0.0, "extension": math.nan}
+#: the record fields of a polymorphic run only (its files have the attribute POLYMORPH_ATTR)
+POLYMORPH_FIELDS = {"polymorph": (lambda n: (n,), "f8")}
+POLYMORPH_ATTR = "polymorph_forms"
 
 #: the record fields in a file: name → (dimensions of one record, CF units, long_name); the
 #: first dimension of every field is ``time``. Units are UDUNITS strings (µm, pN, s, rad).
@@ -279,6 +286,12 @@ RECORD_META = {
     "body_angular_velocity": (("xyz",), "rad/s", "angular velocity of the cell body in the lab frame"),
     "body_orientation": (("xyz",), "rad", "orientation of the cell body: rotation vector (|.| <= pi) "
                                           "from its start, motor axis along e_z (0 without a cell body)"),
+    "end_force": ((), "pN", "load pulling the free end along -e_z (extending the filament)"),
+    "extension": ((), "um", "end-to-end extension along the motor axis, z(bead 0) - z(last bead)"),
+}
+POLYMORPH_META = {
+    "polymorph": (("segment",), "1", "polymorphic order parameter of each joint (integers: the "
+                                    "forms of the attribute polymorph_forms in order, 0 the first)"),
 }
 #: the time coordinate's name in a file (``t`` in the records)
 TIME = "time"
@@ -288,6 +301,21 @@ COORDINATES = {
     "xyz": (lambda n: np.array(["x", "y", "z"]),
             {"long_name": "Cartesian component in the lab frame (e_z: the motor axis)"}),
 }
+POLYMORPH_COORDINATES = {
+    "segment": (lambda n: np.arange(1, n + 1), {"units": "1", "long_name": "joint index: joint j "
+                                                "sets bond j relative to bond j-1 (bond 0: the hook frame)"}),
+}
+
+
+def record_layout(attrs: dict) -> tuple[dict, dict, dict]:
+    """(fields, meta, coordinates) of the records of a file with attributes ``attrs``: those
+    of every run, plus the polymorphic state where ``attrs`` name the forms."""
+    if POLYMORPH_ATTR in attrs:
+        return ({**RECORD_FIELDS, **POLYMORPH_FIELDS}, {**RECORD_META, **POLYMORPH_META},
+                {**COORDINATES, **POLYMORPH_COORDINATES})
+    return RECORD_FIELDS, RECORD_META, COORDINATES
+
+
 TIME_ATTRS = {"standard_name": "time", "axis": "T"}
 #: ``final_state``: the simulator's state vector (no single unit: µm and rad)
 STATE_ATTRS = {"long_name": "simulator state at the end of the run (bead 0's position, then "
@@ -328,24 +356,25 @@ def _init_datasets(f, n: int, attrs: dict) -> None:
     import h5py
 
     f.attrs.update(netcdf_attrs({**CONVENTIONS, **attrs}))
-    for name, (shape, dt) in RECORD_FIELDS.items():
+    fields, meta, coordinates = record_layout(attrs)
+    for name, (shape, dt) in fields.items():
         s = shape(n)
         ds = f.create_dataset(_stored(name), shape=(0,) + s, maxshape=(None,) + s, dtype=dt,
                               chunks=(max(1, min(1024, 65536 // max(1, int(np.prod(s))))),) + s)
-        _, units, long_name = RECORD_META[name]
+        _, units, long_name = meta[name]
         ds.attrs.update({"units": units, "long_name": long_name, **(TIME_ATTRS if name == "t" else {})})
-    for name, (values, coord_attrs) in COORDINATES.items():
+    for name, (values, coord_attrs) in coordinates.items():
         v = values(n)
         if v.dtype.kind == "U":
             f.create_dataset(name, data=v.astype(object), dtype=h5py.string_dtype())
         else:
             f.create_dataset(name, data=v)
         f[name].attrs.update(coord_attrs)
-    for dim in (TIME, *COORDINATES):
+    for dim in (TIME, *coordinates):
         f[dim].make_scale(dim)
-    for name in RECORD_FIELDS:
+    for name in fields:
         if name != "t":
-            for axis, dim in enumerate((TIME, *RECORD_META[name][0])):
+            for axis, dim in enumerate((TIME, *meta[name][0])):
                 f[name].dims[axis].attach_scale(f[dim])
 
 
@@ -361,7 +390,7 @@ def _write_state(f, state) -> None:
 
 def _append(f, records: dict) -> None:
     n_old, m = f[TIME].shape[0], len(records["t"])
-    for name in RECORD_FIELDS:
+    for name in records:
         ds = f[_stored(name)]
         ds.resize(n_old + m, axis=0)
         ds[n_old:] = records[name]
@@ -403,7 +432,7 @@ def write_part(path, index: int, records: dict) -> None:
     """Write one interval's records (dict of equally long lists) as part ``index`` of ``path``."""
     with atomic_path(part_path(path, index)) as tmp:
         with new_hdf5(tmp) as f:
-            for name in RECORD_FIELDS:
+            for name in records:
                 f[name] = np.asarray(records[name], float)
 
 
@@ -456,12 +485,16 @@ def finish_trajectory(path, tail: dict | None = None, final_state=None,
 
     with h5py.File(path, "r") as f:
         old, n = dict(f.attrs), _n_segments(f)
+    fields = record_layout(old)[0]
     with atomic_path(path) as tmp:
         with new_hdf5(tmp) as f:
             _init_datasets(f, n, {**old, **(attrs or {})})
             for p in part_files(path):
                 with h5py.File(p, "r") as part:
-                    _append(f, {k: part[k][()] for k in RECORD_FIELDS})
+                    m = part["t"].shape[0]
+                    _append(f, {k: part[k][()] if k in part else
+                                np.full((m, *fields[k][0](n)), ADDED_FIELDS[k])
+                                for k in fields})
             if tail is not None and len(tail["t"]):
                 t = np.asarray(tail["t"], float)
                 new = t > f[TIME][-1] if f[TIME].shape[0] else np.ones(len(t), bool)
@@ -492,19 +525,20 @@ def read_trajectory(path, records: bool = True) -> dict:
             old_layout = "t" in f and TIME not in f
             if records and (old_layout or TIME in f):
                 name = (lambda k: k) if sources or old_layout else _stored  # parts: plain names
-                have = sources[0] if sources else f
-                out.update({k: np.concatenate([s[name(k)][()] for s in sources or [f]])
-                            for k in RECORD_FIELDS if k not in LATER_FIELDS or name(k) in have})
+                have = [s for s in sources or [f]]
+                out.update({k: np.concatenate([s[name(k)][()] for s in have])
+                            for k in record_layout(out["attrs"])[0] if k not in ADDED_FIELDS
+                            or all(name(k) in s for s in have)})
             if records and "final_state" in f:
                 out["final_state"] = f["final_state"][()]
     except (OSError, KeyError, ValueError, TypeError) as exc:
         raise bad(exc) from None
     if "t" in out:
         m, n = len(out["t"]), np.shape(out["positions"])[1:2]
-        for name in LATER_FIELDS:  # a file of an earlier version
-            if name not in out and n:
-                out[name] = np.full((m,) + RECORD_FIELDS[name][0](n[0] - 1), np.nan)
-        for name, (shape, _) in RECORD_FIELDS.items():
+        for k, fill in ADDED_FIELDS.items():  # a file from before these fields
+            if k not in out and n:
+                out[k] = np.full((m, *RECORD_FIELDS[k][0](n[0] - 1)), fill)
+        for name, (shape, _) in record_layout(out["attrs"])[0].items():
             if not n or out[name].shape != (m,) + shape(n[0] - 1) or out[name].dtype.kind != "f":
                 raise bad(f"dataset {name} has shape {out[name].shape}")
     return out

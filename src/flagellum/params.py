@@ -221,6 +221,144 @@ def lighthill_friction(filament: Filament, fluid: Fluid) -> tuple[float, float, 
             4 * math.pi * eta * fluid.filament_radius**2)
 
 
+@dataclass(frozen=True)
+class EndLoad:
+    """A load on the free end (the last bead), along the motor axis.
+
+    ``force`` [pN]: a constant force pulling the free end along −e_z, i.e. away from the
+    motor, so that it extends the filament (F > 0 stretches; F < 0 pushes the end towards
+    the motor). ``trap_stiffness`` k [pN/µm]: an axial trap (it acts on the z coordinate
+    only, as a force clamp) whose centre starts at the free end of the initial filament and
+    moves along −e_z at ``pull_rate`` v [µm/s]; its force k (z_c(t) − z_N) adds to ``force``.
+    """
+
+    force: float = 0.0
+    pull_rate: float = 0.0
+    trap_stiffness: float = 0.0
+
+    def __post_init__(self):
+        _set(self, "force", check_range("end_force", self.force, -1e4, 1e4))
+        _set(self, "trap_stiffness", check_range("trap_stiffness", self.trap_stiffness, 0.0, 1e5,
+                                                 lo_open=False))
+        _set(self, "pull_rate", check_range("pull_rate", self.pull_rate, -1e4, 1e4))
+        if self.pull_rate != 0.0 and self.trap_stiffness == 0.0:
+            raise ParameterError("pull_rate", self.pull_rate, "0 unless trap_stiffness > 0 "
+                                 "(the rate moves the trap's centre)")
+
+    @property
+    def active(self) -> bool:
+        return self.force != 0.0 or self.trap_stiffness != 0.0
+
+
+#: Polymorphic forms of the flagellar filament: name → (pitch [µm], helix diameter [µm],
+#: handedness relative to the normal form: +1 the same, −1 the opposite). The normal form
+#: is left-handed, semicoiled and curly-1 right-handed (Calladine, J. Mol. Biol. 118, 457
+#: (1978); Hotani, J. Mol. Biol. 156, 791 (1982)); pitch and diameter of E. coli filaments:
+#: Turner, Ryu & Berg, J. Bacteriol. 182, 2793 (2000) and Darnton & Berg, Biophys. J. 92,
+#: 2230 (2007), Table 1 (see docs/polymorphism.md for how these were taken). The normal form
+#: of a :class:`Polymorphism` is the filament's own helix (κ0, τ0; the paper's: pitch
+#: 2.16 µm, diameter 0.43 µm), so that a one-form filament is the paper's.
+POLYMORPHIC_FORMS = {
+    "normal": (2.22, 0.41, 1),
+    "semicoiled": (1.11, 0.40, -1),
+    "curly1": (1.04, 0.38, -1),
+}
+
+
+def helix_strains(pitch: float, diameter: float) -> tuple[float, float]:
+    """(κ, |τ|) [1/µm] of the helix of ``pitch`` and ``diameter``: with R = D/2, b = P/2π,
+    κ = R/(R² + b²), τ = b/(R² + b²)."""
+    r, b = diameter / 2, pitch / (2 * math.pi)
+    return r / (r * r + b * b), b / (r * r + b * b)
+
+
+@dataclass(frozen=True)
+class Polymorphism:
+    """A multistable filament (:mod:`flagellum.rod.polymorph`): each joint carries an order
+    parameter φ whose integer values 0, 1, … are the ``forms`` in order (a form's intrinsic
+    curvature and torsion at φ = its index, linear in between).
+
+    Landscape (energy per length [pN]) between neighbouring forms m, m+1, x = φ − m:
+    v = ε_m + k q(x; a_m), q = x⁴/4 − (1 + a) x³/3 + a x²/2 with k = 64·``barrier`` and
+    a_m = 1/2 + 6 (ε_{m+1} − ε_m)/k, so that v(m) = ε_m, both forms are minima (v' = 0) and,
+    for equal ε, the barrier between them is ``barrier`` high. ``energies`` ε [pN] (default 0
+    for every form). Domain walls cost D/2 (∂φ/∂s)² per length, D = ``wall_stiffness``
+    [pN·µm²]; ``friction`` ζ [pN·s] sets the overdamped dynamics ζ ∂φ/∂t = −δE/δφ (+ noise of
+    a thermal run). ``initial``: the starting form of every joint (default: the first
+    form), or ``"form:count,…"`` along the filament from the motor (counts summing to the
+    segment count).
+    """
+
+    forms: tuple = ("normal", "semicoiled", "curly1")
+    energies: tuple | None = None
+    barrier: float = 1.0
+    wall_stiffness: float = 8.0
+    friction: float = 0.1
+    initial: str | None = None
+
+    def __post_init__(self):
+        forms = tuple(self.forms) if not isinstance(self.forms, str) else tuple(
+            f.strip() for f in self.forms.split(","))
+        if not forms or any(f not in POLYMORPHIC_FORMS for f in forms) or len(set(forms)) != len(forms):
+            raise ParameterError("polymorphic", ",".join(map(str, forms)), "distinct forms among "
+                                 + ", ".join(POLYMORPHIC_FORMS))
+        _set(self, "forms", forms)
+        _set(self, "barrier", positive("polymorph_barrier", self.barrier, 1e4))
+        _set(self, "wall_stiffness", positive("polymorph_wall_stiffness", self.wall_stiffness, 1e6))
+        _set(self, "friction", positive("polymorph_friction", self.friction, 1e6))
+        if self.energies is None:
+            _set(self, "energies", (0.0,) * len(forms))
+        e = tuple(check_real("polymorph_energies", v) for v in self.energies)
+        if len(e) != len(forms):
+            raise ParameterError("polymorph_energies", ",".join(map(str, e)),
+                                 f"{len(forms)} numbers (one per form)")
+        k = 64 * self.barrier
+        if any(abs(b - a) >= k / 12 for a, b in zip(e, e[1:])):
+            raise ParameterError("polymorph_energies", ",".join(map(str, e)), "neighbouring "
+                                 f"differences below 16/3 × barrier = {k / 12:g} pN (both forms minima)")
+        _set(self, "energies", e)
+        if self.initial is None:
+            _set(self, "initial", forms[0])
+        if not isinstance(self.initial, str):
+            raise ParameterError("polymorph_initial", self.initial, "a form or 'form:count,…'")
+
+    def initial_states(self, n: int) -> "list[int]":
+        """The starting form index of each of the n joints."""
+        items = [p.strip() for p in self.initial.split(",")]
+        allowed = "a form of --polymorphic or 'form:count,…' with counts summing to the segments"
+        out: list[int] = []
+        for item in items:
+            name, _, count = item.partition(":")
+            if name not in self.forms:
+                raise ParameterError("polymorph_initial", self.initial, allowed)
+            try:
+                c = int(count) if count else (n if len(items) == 1 else -1)
+            except ValueError:
+                c = -1
+            if c < 0:
+                raise ParameterError("polymorph_initial", self.initial, allowed)
+            out += [self.forms.index(name)] * c
+        if len(out) != n:
+            raise ParameterError("polymorph_initial", self.initial, allowed + f" ({n})")
+        return out
+
+    def strains(self, filament: "Filament") -> tuple[tuple, tuple]:
+        """(κ, signed τ) [1/µm] of each form for ``filament``: the normal form is the
+        filament's helix, the others from :data:`POLYMORPHIC_FORMS` with their handedness
+        relative to it."""
+        kap, tau = [], []
+        for f in self.forms:
+            if f == "normal":
+                k, t = filament.kappa0, filament.torsion
+            else:
+                pitch, diameter, hand = POLYMORPHIC_FORMS[f]
+                k, t = helix_strains(pitch, diameter)
+                t *= hand * filament.chirality
+            kap.append(k)
+            tau.append(t)
+        return tuple(kap), tuple(tau)
+
+
 _SECTIONS = {"filament": Filament, "fluid": Fluid, "friction": Friction}
 
 
@@ -321,5 +459,5 @@ def read_toml(path: str | Path) -> dict:
         raise ParameterError("config", str(path), f"valid TOML ({exc})")
 
 
-__all__ = ["FRICTION_RANGE", "MAX_SEGMENTS", "Filament", "Fluid", "Friction", "Params", "PAPER_FRICTION", "lighthill_friction",
+__all__ = ["EndLoad", "POLYMORPHIC_FORMS", "Polymorphism", "helix_strains", "FRICTION_RANGE", "MAX_SEGMENTS", "Filament", "Fluid", "Friction", "Params", "PAPER_FRICTION", "lighthill_friction",
            "check_real", "check_range", "check_choice", "positive", "read_toml"]

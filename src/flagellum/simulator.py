@@ -39,7 +39,9 @@ from .hydro.rft import pinned_helix, pinned_omega_per_torque
 from .integrate import ATOL_PER_RTOL
 from .integrate.base import STEPPERS, make_stepper
 from .motor import Boundary, Motor
-from .params import Params, check_choice, check_range, check_real, positive
+from .params import EndLoad, Params, Polymorphism, check_choice, check_range, check_real, positive
+from .rod import polymorph as PM
+from .rod import kernels as K
 from .rod.model import RodModel, angles, positions, state_size
 from .trajectory import COMPLETE, OutputError, RunFiles, Trajectory
 
@@ -109,11 +111,15 @@ class State:
         (:meth:`flagellum.rod.model.RodModel.charts`) in the same frame; the material
         angles in y are measured against them.
     frame_angle : [rad]; 0 when y and the charts are in the lab frame.
+    phi : (N,) the polymorphic order parameters of the joints (a polymorphic simulator's
+        :meth:`Simulator.state`); None: a polymorphic simulator started from this state
+        takes those of its ``polymorphism.initial``.
     """
 
     y: np.ndarray
     charts: tuple
     frame_angle: float = 0.0
+    phi: np.ndarray | None = None
 
 
 def check_cell(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynamics,
@@ -173,6 +179,11 @@ class Simulator:
     hydrodynamics : the filament's mobility (:class:`~flagellum.hydro.dynamics.Hydrodynamics`,
         default local RFT); a nonlocal one is frozen over the chunks between chart checks
         and rebuilt as it says.
+    end_load : a force or a moving trap on the free end (:class:`~flagellum.params.EndLoad`).
+    polymorphism : a multistable filament (:class:`~flagellum.params.Polymorphism`,
+        :mod:`flagellum.rod.polymorph`); None (default): the single-state filament. Its
+        order parameters ``phi`` (one per joint) advance between the integration chunks at
+        the rod's frozen strains; a thermal run adds their noise.
 
     Notes
     -----
@@ -185,8 +196,11 @@ class Simulator:
     def __init__(self, params: Params | None = None, motor: Motor | None = None,
                  boundary: Boundary | None = None, *, thermal: bool = False,
                  seed: int | None = None, solver: SolverOptions | None = None,
-                 hydrodynamics: Hydrodynamics | None = None):
+                 hydrodynamics: Hydrodynamics | None = None, end_load: EndLoad | None = None,
+                 polymorphism: Polymorphism | None = None):
         self.params = params or Params()
+        self.end_load = end_load if end_load is not None and end_load.active else None
+        self.polymorphism = polymorphism
         self.hydrodynamics = hydrodynamics or Hydrodynamics()
         self.motor = motor or Motor()
         self.boundary = boundary or Boundary()
@@ -203,14 +217,73 @@ class Simulator:
         omega = 0.0 if f == "lab" else (float(f) if not isinstance(f, str) else
                                          pinned_omega_per_torque(self.params) * final)
         self.model = RodModel(self.params, self.motor, self.boundary, omega_frame=omega,
-                              hydrodynamics=self.hydrodynamics)
+                              hydrodynamics=self.hydrodynamics, end_load=self.end_load,
+                              segments=polymorphism is not None)
         self.t = 0.0
         self.frame_angle = 0.0
-        self.y = self.model.initial_state(pinned_helix(self.params, self.boundary))
+        self.phi = np.zeros(self.model.n)  #: polymorphic order parameter of each joint
+        self._phi_rng = None
+        if polymorphism is None:
+            self.y = self.model.initial_state(pinned_helix(self.params, self.boundary))
+        else:
+            self.y = self._polymorphic_start()
+        self.model.trap_origin = float(self.y[5 + 4 * self.model.n])  # a trap starts at the free end
         self._rng_state = None
         self._last_motor = None
         self.wall_seconds = 0.0
         self.steps = 0
+
+    # -- polymorphism -------------------------------------------------------------------
+    def _polymorphic_start(self) -> np.ndarray:
+        """The stress-free rod of the initial forms: the first joint's form as the pinned helix
+        (:func:`~flagellum.hydro.rft.pinned_helix`), continued joint by joint."""
+        from .helix import DiscreteHelix, discrete_rod
+
+        pm, f = self.polymorphism, self.params.filament
+        self.phi = np.array(pm.initial_states(self.model.n), float)
+        self._forms = tuple(np.array(v) for v in pm.strains(f))
+        kap, tau = self._intrinsic()
+        first = self.params.replace(kappa0=float(kap[0]), tau0=abs(float(tau[0])),
+                                    handedness="right" if tau[0] >= 0 else "left")
+        dh = pinned_helix(first, self.boundary)
+        pos, frames = discrete_rod(dh.frames[0], kap, tau, self.model.h, dh.positions[0])
+        self.model.set_intrinsic(kap, tau)
+        self._phi_rng = np.random.default_rng([self.seed, 20]) if self.thermal else None
+        return self.model.initial_state(DiscreteHelix(pos, frames, dh.axis_point, dh.axis_direction,
+                                                      dh.radius, dh.pitch, dh.segment_length))
+
+    def _intrinsic(self):
+        kap, tau = np.empty(self.model.n), np.empty(self.model.n)
+        PM.intrinsic(self.phi, *self._forms, kap, tau)
+        return kap, tau
+
+    def _phi_constants(self):
+        pm, f = self.polymorphism, self.params.filament
+        k = 64.0 * pm.barrier
+        return (self.model.h, np.array(pm.energies, float), k, pm.wall_stiffness, pm.friction,
+                f.bend_rigidity, f.twist_rigidity)
+
+    @property
+    def phi_relaxation_time(self) -> float:
+        """ζ/k [s]: the relaxation time of a well (the longest chunk between φ updates)."""
+        return self.polymorphism.friction / (64.0 * self.polymorphism.barrier)
+
+    def _transform(self, y: np.ndarray, dt: float) -> bool:
+        """Advance φ by dt at the strains of y; True if the intrinsic shape changed."""
+        h, eps, k, D, zeta, A, C = self._phi_constants()
+        kap_f, tau_f = self._forms
+        sub = PM.stable_substep(h, k, D, zeta, kap_f, tau_f, A, C)
+        n_sub = max(1, math.ceil(dt / sub))
+        kT = self.params.fluid.kT if self.thermal else 0.0
+        normals = (self._phi_rng.standard_normal((n_sub, self.model.n)) if kT > 0
+                   else np.zeros((1, 1)))
+        old = self.phi.copy()
+        PM.advance(self.phi, dt, n_sub, h, eps, k, D, zeta, A, C, self.model.joint_strains(y),
+                   kap_f, tau_f, True, kT, normals)
+        if np.array_equal(old, self.phi):
+            return False
+        self.model.set_intrinsic(*self._intrinsic())
+        return True
 
     # -- state ------------------------------------------------------------------------
     @classmethod
@@ -218,7 +291,8 @@ class Simulator:
                    boundary: Boundary | None = None, *, t: float = 0.0,
                    omega_frame: float | None = None, thermal: bool = False,
                    seed: int | None = None, solver: SolverOptions | None = None,
-                   hydrodynamics: Hydrodynamics | None = None) -> "Simulator":
+                   hydrodynamics: Hydrodynamics | None = None, end_load: EndLoad | None = None,
+                   polymorphism: Polymorphism | None = None) -> "Simulator":
         """A simulator (arguments as for :class:`Simulator`) that starts at time ``t`` [s]
         from ``state``: e.g. a relative equilibrium in its co-rotating frame
         (:func:`flagellum.analysis.stability.relative_equilibrium`, with ``omega_frame``
@@ -228,10 +302,12 @@ class Simulator:
         adapts it from there); None: the one ``solver.frame`` chooses. The motor angle is
         unwrapped afresh from the state's hook frame, and a thermal run's random stream
         starts from ``seed``. A state that does not fit the filament raises
-        :class:`~flagellum.errors.ParameterError`.
+        :class:`~flagellum.errors.ParameterError`. A trap (``end_load``) is centred at the
+        state's free end; the order parameters of ``polymorphism`` are the state's ``phi``,
+        or (None) those of its ``initial``.
         """
         sim = cls(params, motor, boundary, thermal=thermal, seed=seed, solver=solver,
-                  hydrodynamics=hydrodynamics)
+                  hydrodynamics=hydrodynamics, end_load=end_load, polymorphism=polymorphism)
         sim._place(state, t, omega_frame)
         return sim
 
@@ -252,10 +328,22 @@ class Simulator:
             self.model.set_omega_frame(check_range("omega_frame", omega_frame, -1e6, 1e6, lo_open=False))
         self.y = arrays[0]
         self.model.set_charts(*arrays[1:])
+        self.model.trap_origin = float(self.y[5 + 4 * self.model.n])  # a trap starts at the given free end
+        phi = getattr(state, "phi", None)
+        if phi is not None and self.polymorphism is not None:
+            phi = np.array(phi, float)
+            if phi.shape != (self.model.n,) or not np.all(np.isfinite(phi)):
+                raise ParameterError("state", f"phi of shape {phi.shape}",
+                                     f"finite order parameters of shape ({self.model.n},)")
+            self.phi = phi
+            self.model.set_intrinsic(*self._intrinsic())
 
     def state(self) -> State:
         """The current state in the computational frame (a copy)."""
-        return State(self.y.copy(), self.model.charts(), self.frame_angle)
+        return State(self.y.copy(), self.model.charts(), self.frame_angle, self._phi_copy())
+
+    def _phi_copy(self):
+        return self.phi.copy() if self.polymorphism is not None else None
 
     def lab_state(self) -> State:
         """The current state turned into the lab frame (``frame_angle`` 0)."""
@@ -266,7 +354,7 @@ class Simulator:
         beads[:, :3] = _rotate_z(beads[:, :3], a)
         if self.model.cell:  # the body's orientation turned with the frame
             y[-3:] = matrix_rotvec(_rotate_z(rotvec_matrix(y[-3:]).T, a).T)
-        return State(y, (_rotate_z(ref_u, a), _rotate_z(ref_e, a), ref_m))
+        return State(y, (_rotate_z(ref_u, a), _rotate_z(ref_e, a), ref_m), phi=self._phi_copy())
 
     # -- metadata ---------------------------------------------------------------------
     def metadata(self) -> dict:
@@ -277,14 +365,18 @@ class Simulator:
                 "hydrodynamics": self.hydrodynamics.model,
                 "helix_radius": Helix.from_filament(self.params.filament).radius,
                 "segments": self.model.n,
-                "body_rotation_per_torque": self.model.body_rotation_per_torque, **io.provenance()}
+                "body_rotation_per_torque": self.model.body_rotation_per_torque,
+                **({io.POLYMORPH_ATTR: ",".join(self.polymorphism.forms)} if self.polymorphism else {}),
+                **io.provenance()}
 
     def spec(self) -> dict:
         """Everything needed to rebuild this simulator (JSON-serializable)."""
         return {"params": self.params.to_dict(), "motor": asdict(self.motor),
                 "boundary": self.boundary.to_dict(), "solver": asdict(self.solver),
                 "thermal": self.thermal, "seed": self.seed,
-                "hydrodynamics": self.hydrodynamics.to_dict()}
+                "hydrodynamics": self.hydrodynamics.to_dict(),
+                **({"end_load": asdict(self.end_load)} if self.end_load else {}),
+                **({"polymorphism": asdict(self.polymorphism)} if self.polymorphism else {})}
 
     @classmethod
     def from_spec(cls, spec: dict) -> "Simulator":
@@ -296,7 +388,9 @@ class Simulator:
                 motor[k] = tuple(motor[k])
         return cls(Params.from_dict(spec["params"]), Motor(**motor), Boundary(**spec["boundary"]),
                    thermal=spec["thermal"], seed=spec["seed"], solver=SolverOptions(**spec["solver"]),
-                   hydrodynamics=Hydrodynamics.from_dict(spec.get("hydrodynamics")))
+                   hydrodynamics=Hydrodynamics.from_dict(spec.get("hydrodynamics")),
+                   end_load=EndLoad(**spec["end_load"]) if spec.get("end_load") else None,
+                   polymorphism=Polymorphism(**spec["polymorphism"]) if spec.get("polymorphism") else None)
 
     # -- stepping ---------------------------------------------------------------------
     def _stepper(self):
@@ -327,8 +421,11 @@ class Simulator:
                      ("energy", m.last_energy), ("frame_angle", self.frame_angle),
                      ("relative_motor_speed", m.last_relative_motor_speed),
                      ("body_position", body[0]), ("body_axis", body[1]),
-                     ("body_angular_velocity", body[2]), ("body_orientation", body[3])):
+                     ("body_angular_velocity", body[2]), ("body_orientation", body[3]),
+                     ("end_force", m.end_force(t, y)), ("extension", y[5] - y[5 + 4 * self.model.n])):
             buf[k].append(np.array(v, float))
+        if self.polymorphism is not None:
+            buf["polymorph"].append(self.phi.copy())
 
     def _advance(self, stepper, t_target: float) -> np.ndarray:
         """Advance to t_target in chunks short enough that no tangent can turn by more than
@@ -338,6 +435,8 @@ class Simulator:
         if self._last_motor is not None:  # measured motor speed, capped: transients spike it
             rate = max(rate, min(abs(self._last_motor[3]), 3.0 * self._omega_scale))
         chunk = 0.5 / rate
+        if self.polymorphism is not None:  # φ follows the rod between chunks: shorter than ζ/k
+            chunk = min(chunk, 0.5 * self.phi_relaxation_time)
         step = stepper.fixed_step
         if step:  # whole fixed steps: a shortened step would restart BDF2 with an Euler step
             chunk = step * max(1, math.floor(chunk / step))
@@ -347,9 +446,16 @@ class Simulator:
             if t_target - t_next < 0.25 * chunk:
                 t_next = t_target
             self.model.refresh_mobility(y)  # a nonlocal mobility: frozen over the chunk
+            if self.end_load is not None:  # integrators that call the kernels themselves
+                self.model.prm[self.model.iprm[K.I_EXTRA] + K.X_TRAP_Z] = \
+                    self.model.trap_centre(0.5 * (stepper.t + t_next))
+            t_prev = stepper.t
             y = stepper.advance(t_next)
+            reset = self.polymorphism is not None and self._transform(y, t_next - t_prev)
             if t_next < t_target and self.model.rechart(y, threshold=CHART_LIMIT):
                 self.model.refresh_mobility(y, force=True)
+                reset = True
+            if reset:
                 stepper.reset(t_next, y)
         return y
 
@@ -466,8 +572,9 @@ class Simulator:
         times = self._times(plan)
         flush_every = plan["flush_every"]
         progress = show_progress(progress)
-        buf = {k: [] for k in io.RECORD_FIELDS}
-        kept = {k: [] for k in io.RECORD_FIELDS} if files is None else None
+        fields = io.record_layout(self.metadata() if self.polymorphism else {})[0]
+        buf = {k: [] for k in fields}
+        kept = {k: [] for k in fields} if files is None else None
         if start == 0:
             self._record(buf)
         stepper = self._stepper()
@@ -535,13 +642,15 @@ class Simulator:
     def _checkpoint(self, files: RunFiles, plan: dict, n_done: int, wall0: float, steps: int) -> None:
         ref_u, ref_e, ref_m = self.model.charts()
         files.write_checkpoint(
-            {"y": self.y, "ref_u": ref_u, "ref_e": ref_e, "ref_m": ref_m},
+            {"y": self.y, "ref_u": ref_u, "ref_e": ref_e, "ref_m": ref_m,
+             **({"phi": self.phi} if self.polymorphism is not None else {})},
             {"t": self.t, "frame_angle": self.frame_angle, "omega_frame": self.model.omega_frame,
              "n_done": n_done, "n_records": n_done + 1,  # + the initial record
              "plan": json.dumps(plan), "rng_state": json.dumps(self._rng_state),
              "last_motor": json.dumps(self._last_motor),
              "wall_seconds": self.wall_seconds + time.perf_counter() - wall0, "steps": steps,
-             "spec": json.dumps(self.spec())})
+             "spec": json.dumps(self.spec()), "trap_origin": self.model.trap_origin,
+             **({"phi_rng": json.dumps(self._phi_rng.bit_generator.state)} if self._phi_rng else {})})
 
     @classmethod
     def resume(cls, output: str | Path, progress: bool | None = None) -> tuple["Simulator", Trajectory]:
@@ -598,6 +707,12 @@ class Simulator:
         sim._place(State(arrays["y"], charts, float(a["frame_angle"])), float(a["t"]),
                    float(a["omega_frame"]))
         sim._rng_state = json.loads(a["rng_state"])
+        sim.model.trap_origin = float(a.get("trap_origin", sim.model.trap_origin))
+        if "phi" in arrays:
+            sim.phi = np.array(arrays["phi"], float)
+            sim.model.set_intrinsic(*sim._intrinsic())
+            if "phi_rng" in a:
+                sim._phi_rng.bit_generator.state = json.loads(a["phi_rng"])
         last = tuple(json.loads(a["last_motor"]))
         if len(last) == 4:  # (t, raw, angle, rate) of the swing–twist split of the material frame
             t0, _, angle0, rate0 = last

@@ -71,6 +71,12 @@ class Trajectory:
     body_orientation : (n_t, 3) the cell body's orientation [rad]: the rotation vector
         (|φ| ≤ π) that turns it from its start (motor axis along e_z) to now, lab frame
         (0 without a cell body); with ``body_position`` the body's whole rigid motion.
+    end_force : (n_t,) load pulling the free end along −e_z [pN] (:class:`~flagellum.params.EndLoad`;
+        0 without one).
+    extension : (n_t,) end-to-end extension along the motor axis, z_0 − z_N [µm].
+    polymorph : (n_t, N) polymorphic order parameter of each joint of a polymorphic run
+        (:mod:`flagellum.rod.polymorph`; its forms in ``meta["polymorph_forms"]``); None for
+        a single-state filament.
     meta : the run's metadata (parameters, solver, provenance:
         :meth:`flagellum.simulator.Simulator.metadata`).
     """
@@ -91,15 +97,19 @@ class Trajectory:
     body_axis: np.ndarray | None = None
     body_angular_velocity: np.ndarray | None = None
     body_orientation: np.ndarray | None = None
+    end_force: np.ndarray | None = None
+    extension: np.ndarray | None = None
     meta: dict = field(default_factory=dict)
+    #: (n_t, N) or None: set from a polymorphic run's records (not a field of every run)
+    polymorph = None
 
     def __post_init__(self):
         nt = len(np.asarray(self.t).reshape(-1))
-        for name in io.LATER_FIELDS:
+        for name, fill in io.ADDED_FIELDS.items():
             if getattr(self, name) is None:
-                setattr(self, name, np.full((nt,) + io.RECORD_FIELDS[name][0](0), np.nan))
+                setattr(self, name, np.full((nt,) + io.RECORD_FIELDS[name][0](0), fill))
         for name in io.RECORD_FIELDS:
-            setattr(self, name, np.asarray(getattr(self, name), float if name in io.LATER_FIELDS else None))
+            setattr(self, name, np.asarray(getattr(self, name), float if name in io.ADDED_FIELDS else None))
         if np.all(np.isnan(self.relative_motor_speed)) and nt:  # a file of an earlier version
             self.relative_motor_speed = self.motor_speed + float(
                 self.meta.get("body_rotation_per_torque", 0.0)) * self.torque
@@ -107,12 +117,16 @@ class Trajectory:
     @classmethod
     def from_records(cls, records: dict, meta: dict) -> "Trajectory":
         """From a dict with (at least) the record fields, e.g. :func:`flagellum.io.read_trajectory`."""
-        return cls(**{k: records[k] for k in io.RECORD_FIELDS if k in records}, meta=meta)
+        traj = cls(**{k: records[k] for k in io.RECORD_FIELDS if k in records}, meta=meta)
+        if records.get("polymorph") is not None:
+            traj.polymorph = np.asarray(records["polymorph"])
+        return traj
 
     @property
     def records(self) -> dict:
         """The record fields as a dict (name → array)."""
-        return {k: getattr(self, k) for k in io.RECORD_FIELDS}
+        extra = {} if self.polymorph is None else {"polymorph": self.polymorph}
+        return {**{k: getattr(self, k) for k in io.RECORD_FIELDS}, **extra}
 
     @property
     def y(self):
@@ -135,14 +149,15 @@ class Trajectory:
 
         n = self.positions.shape[1] - 1 if self.positions.ndim == 3 else int(self.meta.get("segments", 0))
         data = {}
-        for name, (shape, _) in io.RECORD_FIELDS.items():
+        fields, meta, coordinates = io.record_layout(self.meta if self.polymorph is not None else {})
+        for name, (shape, _) in fields.items():
             if name != "t":
-                dims, units, long_name = io.RECORD_META[name]
+                dims, units, long_name = meta[name]
                 values = getattr(self, name).reshape((len(self.t), *shape(n)))
                 data[name] = ((io.TIME, *dims), values, {"units": units, "long_name": long_name})
         _, units, long_name = io.RECORD_META["t"]
         coords = {io.TIME: (io.TIME, self.t, {"units": units, "long_name": long_name, **io.TIME_ATTRS}),
-                  **{c: (c, values(n), attrs) for c, (values, attrs) in io.COORDINATES.items()}}
+                  **{c: (c, values(n), attrs) for c, (values, attrs) in coordinates.items()}}
         return xr.Dataset(data, coords=coords, attrs=io.netcdf_attrs({**io.CONVENTIONS, **self.meta}))
 
     def summary(self, t_from: float | None = None) -> RunSummary:
@@ -160,6 +175,35 @@ class Trajectory:
                              self.relative_motor_speed, body=(self.body_position, self.body_axis,
                                                               self.body_angular_velocity),
                              kT=self.kT)
+
+    def load_summary(self, t_from: float | None = None) -> dict:
+        """Means over t ≥ ``t_from`` (default: the last half) of the end load [pN], the
+        extension [µm] and the anchor's force along e_z [pN] (in steady state −end_force)."""
+        sel = self._window(t_from)
+        return {"end_force_mean": float(np.mean(self.end_force[sel])),
+                "extension_mean": float(np.mean(self.extension[sel])),
+                "extension_final": float(self.extension[-1])}
+
+    def polymorph_summary(self, t_from: float | None = None) -> dict:
+        """The fraction of the joints in each form (``meta["polymorph_forms"]``) and the number
+        of domain walls: means over t ≥ ``t_from`` (default: the last half) and at the end;
+        empty for a single-state run."""
+        from .rod.polymorph import domain_walls, fractions
+
+        if self.polymorph is None:
+            return {}
+        forms = str(self.meta[io.POLYMORPH_ATTR]).split(",")
+        sel = self._window(t_from)
+        frac = fractions(self.polymorph, len(forms))
+        return {"form_fractions": {f: float(np.mean(frac[sel, i])) for i, f in enumerate(forms)},
+                "form_fractions_final": {f: float(frac[-1, i]) for i, f in enumerate(forms)},
+                "domain_walls_mean": float(np.mean(domain_walls(self.polymorph[sel]))),
+                "domain_walls_final": int(domain_walls(self.polymorph[-1]))}
+
+    def _window(self, t_from):
+        t0 = self.t[0] + 0.5 * (self.t[-1] - self.t[0]) if t_from is None else t_from
+        sel = self.t >= t0
+        return sel if sel.any() else np.ones(len(self.t), bool)
 
     @property
     def kT(self) -> float:

@@ -302,3 +302,71 @@ def existing_file(path: str) -> Path:
     from ..io import input_file
 
     return input_file(path, "file")
+
+
+# -- loads on the free end and polymorphism -------------------------------------------------
+
+def end_load_options(func):
+    """``--end-force``, ``--pull-rate``, ``--trap-stiffness``: a load on the free end
+    (:class:`~flagellum.params.EndLoad`)."""
+    opts = [
+        click.option("--end-force", type=float, default=None,
+                     help="constant force on the free end along -e_z [pN] (> 0 extends the filament)"),
+        click.option("--pull-rate", type=float, default=None,
+                     help="speed of the trap's centre along -e_z [µm/s] (needs --trap-stiffness)"),
+        click.option("--trap-stiffness", type=float, default=None,
+                     help="stiffness of an axial trap on the free end [pN/µm]; its centre starts "
+                          "at the free end and moves at --pull-rate"),
+    ]
+    return _add(func, opts)
+
+
+def end_load_from_cli(kwargs: dict):
+    """Pop the end-load flags; None when none is given."""
+    from ..params import EndLoad
+
+    vals = {k: kwargs.pop(f) for k, f in (("force", "end_force"), ("pull_rate", "pull_rate"),
+                                          ("trap_stiffness", "trap_stiffness"))}
+    given = {k: v for k, v in vals.items() if v is not None}
+    return EndLoad(**given) if given else None
+
+
+def polymorph_options(func):
+    """``--polymorphic FORMS`` and the ``--polymorph-*`` parameters of a multistable filament
+    (:class:`~flagellum.params.Polymorphism`)."""
+    opts = [
+        click.option("--polymorphic", type=str, default=None,
+                     help="multistable filament with these forms in order, comma-separated "
+                          "(normal, semicoiled, curly1); the first given is φ = 0"),
+        click.option("--polymorph-energies", type=str, default=None,
+                     help="well energy of each form [pN per µm of filament], comma-separated "
+                          "(default all 0)"),
+        click.option("--polymorph-barrier", type=float, default=None,
+                     help="barrier between neighbouring forms of equal energy [pN] (default 1)"),
+        click.option("--polymorph-wall-stiffness", type=float, default=None,
+                     help="domain-wall stiffness D [pN·µm²] (default 8)"),
+        click.option("--polymorph-friction", type=float, default=None,
+                     help="friction ζ of the order parameter [pN·s] (default 0.1)"),
+        click.option("--polymorph-initial", type=str, default=None,
+                     help="initial form, or 'form:count,…' from the motor (default: the first form)"),
+    ]
+    return _add(func, opts)
+
+
+def polymorph_from_cli(kwargs: dict):
+    """Pop the polymorphism flags; None (the single-state filament) without --polymorphic."""
+    from ..params import Polymorphism
+
+    forms = kwargs.pop("polymorphic", None)
+    vals = {k: kwargs.pop(f"polymorph_{k}", None) for k in
+            ("energies", "barrier", "wall_stiffness", "friction", "initial")}
+    if forms is None:
+        for k, v in vals.items():
+            if v is not None:
+                raise ParameterError(f"polymorph_{k}", v,
+                                     "given only with --polymorphic")
+        return None
+    forms = tuple(f.strip() for f in forms.split(","))
+    if vals["energies"] is not None:
+        vals["energies"] = _floats("polymorph_energies", vals["energies"])
+    return Polymorphism(forms=forms, **{k: v for k, v in vals.items() if v is not None})

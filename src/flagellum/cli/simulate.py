@@ -6,9 +6,10 @@ import math
 
 import click
 
-from ._options import (boundary_from_cli, boundary_options, hydro_from_cli, hydro_options,
-                       motor_from_cli, motor_options, output_option, param_options,
-                       params_from_cli, solver_from_cli, solver_options, time_option)
+from ._options import (boundary_from_cli, boundary_options, end_load_from_cli, end_load_options,
+                       hydro_from_cli, hydro_options, motor_from_cli, motor_options,
+                       output_option, param_options, params_from_cli, polymorph_from_cli,
+                       polymorph_options, solver_from_cli, solver_options, time_option)
 from ..errors import ParameterError
 from ._output import emit_json, emit_table
 
@@ -17,6 +18,8 @@ from ._output import emit_json, emit_table
 @param_options
 @motor_options
 @boundary_options(anchor=True)
+@end_load_options
+@polymorph_options
 @time_option(default=0.3, show_default=True, help="simulated time [s]")
 @click.option("--save-every", type=float, default=None, help="save interval [s] (default time/300)")
 @click.option("--average-from", type=float, default=None,
@@ -51,8 +54,10 @@ def simulate(t_end, save_every, average_from, thermal, seed, output, checkpoint_
     motor = motor_from_cli(kwargs)
     boundary = boundary_from_cli(kwargs)
     solver = solver_from_cli(kwargs, thermal)
+    end_load, polymorphism = end_load_from_cli(kwargs), polymorph_from_cli(kwargs)
     sim = Simulator(params, motor, boundary, thermal=thermal, seed=seed, solver=solver,
-                    hydrodynamics=hydro_from_cli(kwargs))
+                    hydrodynamics=hydro_from_cli(kwargs), end_load=end_load,
+                    polymorphism=polymorphism)
     traj = sim.run(t_end, save_every=save_every if save_every is not None else t_end / 300,
                    output=output, progress=False if as_json else None,
                    checkpoint_every=checkpoint_every, overwrite=overwrite)
@@ -84,6 +89,10 @@ def _report_run(sim, traj, average_from, output, as_json):
     if sim.boundary.anchor == "free" and sim.boundary.sphere_radius:
         out["body_rotation_rate"] = sim.boundary.body_rotation_rate(torque,
                                                                     sim.params.fluid.viscosity)
+    if sim.end_load is not None:
+        out.update(traj.load_summary(average_from))
+    if sim.polymorphism is not None:
+        out.update(traj.polymorph_summary(average_from))
     if output:
         out["output"] = str(output)
     if as_json:

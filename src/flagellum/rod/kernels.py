@@ -88,8 +88,13 @@ def frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e, ref_m,
-            T, E1, E2, LEN, S, GT, GTH, A1):
-    """Elastic energy; fills GT (n+1, 3) = ∂E/∂t at fixed material spin, GTH = ∂E/∂θ."""
+            T, E1, E2, LEN, S, GT, GTH, A1, kappa=None, tau=None, strains=None):
+    """Elastic energy; fills GT (n+1, 3) = ∂E/∂t at fixed material spin, GTH = ∂E/∂θ.
+
+    ``kappa``, ``tau`` (n): the intrinsic curvature and torsion of each joint j (between
+    frames j and j+1) instead of the scalars κ0, τ0 (a polymorphic filament,
+    :mod:`flagellum.rod.polymorph`); ``strains`` (n, 3), if given, receives the joints'
+    strains (Ω1, Ω2, Ω3)."""
     frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1)
     GT[:, :] = 0.0
     GTH[:] = 0.0
@@ -127,8 +132,14 @@ def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e, ref_m,
         mr = atan2(wx * tbx + wy * tby + wz * tbz, px * rx + py * ry + pz * rz)
         mr += 2.0 * math.pi * math.floor((ref_m[b] - mr) / (2.0 * math.pi) + 0.5)
         psi = thb - tha + mr
-        d2 = k2 - kappa0
-        d3 = psi / h - tau0
+        if kappa is None:
+            d2 = k2 - kappa0
+            d3 = psi / h - tau0
+        else:
+            d2 = k2 - kappa[j]
+            d3 = psi / h - tau[j]
+        if strains is not None:
+            strains[j, 0], strains[j, 1], strains[j, 2] = k1, k2, psi / h
         energy += 0.5 * h * (A * (k1 * k1 + d2 * d2) + C * d3 * d3)
         m1, m2, m3 = A * k1 * h, A * d2 * h, C * d3
         Vx, Vy, Vz = m1 * e1x + m2 * e2x, m1 * e1y + m2 * e2y, m1 * e1z + m2 * e2z
@@ -201,10 +212,24 @@ def bead_gradient(n, h, K, T, LEN, GT, DR):
         DR[i - 1, 2] -= fz
 
 
+@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
+def end_load(y, n, force, trap_k, trap_z):
+    """z component of the load on the last bead [pN]: a constant pull ``force`` along −e_z
+    plus an axial trap of stiffness ``trap_k`` centred at ``trap_z``."""
+    return -force + trap_k * (trap_z - y[3 + 4 * n + 2])
+
+
 # indices into the packed parameter arrays of :func:`rhs`
 P_H, P_A, P_C, P_K, P_KAPPA, P_TAU, P_HOOKK, P_SPHERE, P_GPAR, P_GPERP, P_GROT, P_TORQUE, \
     P_OMEGA, P_ELASTIC, P_BODY, P_LAW = range(16)
 I_N, I_HOOK, I_ANCHOR, I_GEN, I_HYDRO, I_DRIVE, I_NLAW, I_NLAW_CW = range(8)
+#: iprm[I_EXTRA]: offset of the extra block in prm (0: none); iprm[I_SEGMENTS] = 1: the block
+#: holds per-joint intrinsic curvatures and torsions. The block: prm[off + X_FORCE] a constant
+#: force pulling the last bead along −e_z, prm[off + X_TRAP_K] the stiffness of an axial trap
+#: on it centred at z = prm[off + X_TRAP_Z], then (iprm[I_SEGMENTS] = 1) the n curvatures
+#: and the n torsions of the joints from prm[off + X_SEG] on
+I_EXTRA, I_SEGMENTS = 8, 9
+X_FORCE, X_TRAP_K, X_TRAP_Z, X_SEG = range(4)
 #: iprm[I_DRIVE]: what prm[P_TORQUE] is (:class:`flagellum.motor.Motor`). DRIVE_TORQUE: the
 #: motor torque; DRIVE_SPEED: the clamped motor speed relative to the body; DRIVE_LAW: the
 #: direction ±1 of a torque–speed law whose CCW and CW branches follow prm[P_LAW:] as
@@ -490,6 +515,12 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
         GTH[:] = 0.0
         DR[:, :] = 0.0
         energy = 0.0
+    elif iprm[I_SEGMENTS] == 1:
+        o = iprm[I_EXTRA] + X_SEG
+        energy = elastic(y, n, h, prm[P_A], prm[P_C], prm[P_K], prm[P_KAPPA], prm[P_TAU],
+                         prm[P_HOOKK], ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH, A1,
+                         prm[o:o + n], prm[o + n:o + 2 * n])
+        bead_gradient(n, h, prm[P_K], T, LEN, GT, DR)
     else:
         energy = elastic(y, n, h, prm[P_A], prm[P_C], prm[P_K], prm[P_KAPPA], prm[P_TAU],
                          prm[P_HOOKK], ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH, A1)
@@ -499,6 +530,9 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
         for k in range(3):
             DR[i, k] = el * DR[i, k] - ext_f[i, k]
         GTH[i] = el * GTH[i] - ext_m[i]
+    if iprm[I_EXTRA] > 0 and el != 0.0:  # load on the free end: −F e_z + trap k (z_c − z_N) e_z
+        o = iprm[I_EXTRA]
+        DR[n, 2] -= el * end_load(y, n, prm[o + X_FORCE], prm[o + X_TRAP_K], prm[o + X_TRAP_Z])
     if el != 1.0:
         for i in range(n + 1):
             for k in range(3):

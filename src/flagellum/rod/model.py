@@ -18,7 +18,7 @@ from ..hydro import body as body_model
 from ..hydro.dynamics import correction
 from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
-from ..params import Params
+from ..params import EndLoad, Params
 from . import kernels as K
 
 #: (lower, upper) bandwidth of the right-hand side's Jacobian in the bead-by-bead state
@@ -71,11 +71,15 @@ class RodModel:
     hydrodynamics : the bead mobility (:class:`~flagellum.hydro.dynamics.Hydrodynamics`;
         default local RFT). A nonlocal one enters through the frozen correction ΔM that
         :meth:`refresh_mobility` builds (the first :meth:`rhs` call builds it if needed).
+    end_load : a load on the free end (:class:`~flagellum.params.EndLoad`), default none.
+    segments : give each joint its own intrinsic curvature and torsion
+        (:meth:`set_intrinsic`; a polymorphic filament), initially the filament's.
     """
 
     def __init__(self, params: Params | None = None, motor: Motor | None = None,
                  boundary: Boundary | None = None, omega_frame: float = 0.0,
-                 hydrodynamics: Hydrodynamics | None = None):
+                 hydrodynamics: Hydrodynamics | None = None, end_load: EndLoad | None = None,
+                 segments: bool = False):
         self.params = params or Params()
         self.motor = motor or Motor()
         self.boundary = boundary or Boundary()
@@ -112,7 +116,18 @@ class RodModel:
         anchor = K.ANCHOR_CELL if self.cell else _ANCHOR[self.boundary.anchor]
         self.iprm = np.array([self.n, _HOOK[self.boundary.hook], anchor, 0,
                               K.HYDRO_FROZEN if self._nonlocal else K.HYDRO_LOCAL,
-                              _DRIVE[self.motor.drive], len(ccw) // 2, len(cw) // 2], dtype=np.int64)
+                              _DRIVE[self.motor.drive], len(ccw) // 2, len(cw) // 2, 0, 0],
+                             dtype=np.int64)
+        self.end_load = end_load if end_load is not None and end_load.active else None
+        self.segments = bool(segments)
+        self.trap_origin = 0.0  #: z [µm] of the trap's centre at t = 0 (the simulator's start)
+        if self.end_load is not None or self.segments:  # the kernels' extra block (I_EXTRA)
+            load = self.end_load or EndLoad()
+            extra = [load.force, load.trap_stiffness, 0.0]
+            if self.segments:
+                extra += [f.kappa0] * self.n + [f.torsion] * self.n
+            self.iprm[K.I_EXTRA], self.iprm[K.I_SEGMENTS] = len(self.prm), int(self.segments)
+            self.prm = np.concatenate([self.prm, extra])
         self.last_torque = self.prm[K.P_TORQUE] if self.motor.drive == "torque" else 0.0
         self.last_relative_motor_speed = 0.0  #: motor speed relative to the body at the last rhs call
 
@@ -144,6 +159,48 @@ class RodModel:
         self.ref_e[:] = frames[:, :, 0]
         self.update_reference_twists(y)
         return y
+
+    # -- end load and per-joint intrinsic shape -----------------------------------------
+    def trap_centre(self, t: float) -> float:
+        """z [µm] of the trap's centre at time t: the initial free end, moving along −e_z at
+        the pull rate."""
+        return self.trap_origin - (self.end_load.pull_rate * t if self.end_load else 0.0)
+
+    def end_force(self, t: float, y: np.ndarray) -> float:
+        """The load pulling the free end along −e_z [pN] (:class:`~flagellum.params.EndLoad`;
+        0 without one)."""
+        if self.end_load is None:
+            return 0.0
+        return -K.end_load(y, self.n, self.end_load.force, self.end_load.trap_stiffness,
+                           self.trap_centre(t))
+
+    def set_intrinsic(self, kappa: np.ndarray, tau: np.ndarray) -> None:
+        """Intrinsic curvature and signed torsion [1/µm] of each of the n joints (a model
+        built with ``segments``)."""
+        if not self.segments:
+            raise ValueError("set_intrinsic needs a RodModel built with segments=True")
+        o = self.iprm[K.I_EXTRA] + K.X_SEG
+        self.prm[o:o + self.n] = kappa
+        self.prm[o + self.n:o + 2 * self.n] = tau
+
+    @property
+    def intrinsic(self) -> tuple[np.ndarray, np.ndarray]:
+        """(κ, τ) of the joints (copies): the filament's, or those of :meth:`set_intrinsic`."""
+        if not self.segments:
+            f = self.params.filament
+            return np.full(self.n, f.kappa0), np.full(self.n, f.torsion)
+        o = self.iprm[K.I_EXTRA] + K.X_SEG
+        return self.prm[o:o + self.n].copy(), self.prm[o + self.n:o + 2 * self.n].copy()
+
+    def joint_strains(self, y: np.ndarray) -> np.ndarray:
+        """(n, 3) strains (Ω1, Ω2, Ω3) [1/µm] of the joints at state y (joint j: between
+        frames j and j+1)."""
+        w = _Workspace(*self._ws)
+        out = np.zeros((self.n, 3))
+        kap, tau = self.intrinsic
+        K.elastic(y, *self._kernel_args(), self.ref_u, self.ref_e, self.ref_m,
+                  w.T, w.E1, w.E2, w.LEN, w.S, w.GT, w.GTH, w.A1, kap, tau, out)
+        return out
 
     def update_reference_twists(self, y: np.ndarray) -> None:
         """Follow the branch of each joint's reference twist (call between steps)."""
@@ -190,6 +247,9 @@ class RodModel:
     def energy(self, y: np.ndarray) -> float:
         """Elastic energy [pN·µm] (bending, twist, stretching, hook)."""
         w = _Workspace(*self._ws)
+        if self.segments:
+            return K.elastic(y, *self._kernel_args(), self.ref_u, self.ref_e, self.ref_m,
+                             w.T, w.E1, w.E2, w.LEN, w.S, w.GT, w.GTH, w.A1, *self.intrinsic)
         return K.elastic(y, *self._kernel_args(), self.ref_u, self.ref_e, self.ref_m,
                          w.T, w.E1, w.E2, w.LEN, w.S, w.GT, w.GTH, w.A1)
 
@@ -273,6 +333,8 @@ class RodModel:
             self.refresh_mobility(y, force=self._frozen is None)
         ydot = np.empty_like(y) if out is None else out
         self.prm[K.P_TORQUE] = self.motor(t)
+        if self.end_load is not None:
+            self.prm[self.iprm[K.I_EXTRA] + K.X_TRAP_Z] = self.trap_centre(t)
         res = K.rhs(y, ydot, self.prm, self.iprm, self.ref_u, self.ref_e, self.ref_m,
                     self._zf if noise_f is None else noise_f,
                     self._zm if noise_m is None else noise_m, self._zh, self._ws)

@@ -1,0 +1,159 @@
+"""Polymorphism of the filament: the order parameter of each joint and its dynamics.
+
+Each joint j of the discrete rod (between frames j and j+1) carries an order parameter φ_j;
+its integer values 0, 1, … are the polymorphic forms of
+:class:`flagellum.params.Polymorphism` in order (normal, semicoiled, curly-1: Calladine's
+sequence, in which each next form has one more protofilament in the R state; Calladine,
+J. Mol. Biol. 118, 457 (1978)). The joint's intrinsic curvature and torsion are those of
+its form, linear in φ between neighbouring forms, so every form is a stress-free helix of
+the rod energy (:func:`flagellum.rod.kernels.elastic` with per-joint κ, τ).
+
+Energy besides the rod's (per length v [pN], continuum D [pN·µm²]), discretized as::
+
+    E_φ = Σ_j h v(φ_j) + Σ_j D/(2h) (φ_{j+1} − φ_j)²,
+
+v between forms m, m+1 (x = φ − m) the quartic of the Nagumo (Zeldovich) equation,
+v = ε_m + k [x⁴/4 − (1 + a) x³/3 + a x²/2], v' = k x (x − 1)(x − a): minima at both forms,
+a = 1/2 + 6 Δε/k; outside the first and last form the parabola of its well. An overdamped
+dynamics, as for the order parameter of Srigiriraju & Powers, Phys. Rev. E 73, 011902
+(2006) (time-dependent Ginzburg–Landau), ::
+
+    ζ h dφ_j/dt = −∂(E_rod + E_φ)/∂φ_j + √(2 kT ζ h) ξ_j,
+
+with ∂E_rod/∂φ_j = −h [A (Ω2 − κ_j) κ'(φ_j) + C (Ω3 − τ_j) τ'(φ_j)] at the rod's strains:
+stress tilts the landscape (torque- and force-driven transformations). With equal minima
+a wall stays; otherwise it moves towards the higher-energy form at the speed of the
+Nagumo front, c = √(Dk/2)(1 − 2a)/ζ (:func:`front_speed`), for walls much wider than h.
+The noise (a thermal run) samples the Boltzmann weight of E_φ (detailed balance).
+
+The simulator advances φ between the rod's integration chunks with the rod's strains
+frozen (operator splitting, :func:`advance`), chunks shorter than the wells' relaxation
+time ζ/k.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .._jit import FASTMATH
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def landscape(phi, eps, k):
+    """(v, dv/dφ) of the landscape with well energies ``eps`` (forms 0 … M−1) and well
+    stiffness k (:mod:`module docstring <flagellum.rod.polymorph>`)."""
+    m_last = eps.shape[0] - 1
+    if m_last == 0 or phi <= 0.0:  # the first well's parabola (one form: a single well)
+        a = 0.5 + 6.0 * (eps[1] - eps[0]) / k if m_last > 0 else 0.5
+        return eps[0] + 0.5 * k * a * phi * phi, k * a * phi
+    if phi >= m_last:
+        a = 0.5 + 6.0 * (eps[m_last] - eps[m_last - 1]) / k
+        d = phi - m_last
+        return eps[m_last] + 0.5 * k * (1.0 - a) * d * d, k * (1.0 - a) * d
+    m = int(math.floor(phi))
+    x = phi - m
+    a = 0.5 + 6.0 * (eps[m + 1] - eps[m]) / k
+    v = eps[m] + k * (x ** 4 / 4.0 - (1.0 + a) * x ** 3 / 3.0 + a * x * x / 2.0)
+    return v, k * x * (x - 1.0) * (x - a)
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def form_strains(phi, kap, tau):
+    """(κ, τ, dκ/dφ, dτ/dφ) at order parameter φ: linear between the forms (held beyond)."""
+    m_last = kap.shape[0] - 1
+    if m_last == 0:
+        return kap[0], tau[0], 0.0, 0.0
+    if phi < 0.0:
+        return kap[0], tau[0], 0.0, 0.0
+    if phi > m_last:
+        return kap[m_last], tau[m_last], 0.0, 0.0
+    # at a form itself the slope towards the next form (the last: from the one before), so
+    # that stress acts on a joint sitting exactly in its well
+    m = min(int(math.floor(phi)), m_last - 1)
+    x = phi - m
+    dk, dt = kap[m + 1] - kap[m], tau[m + 1] - tau[m]
+    return kap[m] + x * dk, tau[m] + x * dt, dk, dt
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def phi_rate(phi, h, eps, k, D, zeta, A, C, strains, kap, tau, coupled, out):
+    """out_j = −(1/ζh) ∂E/∂φ_j, the deterministic rate of every joint (``coupled``: with the
+    rod's energy at its frozen ``strains`` (n, 3))."""
+    n = phi.shape[0]
+    for j in range(n):
+        _, dv = landscape(phi[j], eps, k)
+        g = h * dv
+        if j > 0:
+            g += D / h * (phi[j] - phi[j - 1])
+        if j < n - 1:
+            g += D / h * (phi[j] - phi[j + 1])
+        if coupled:
+            kj, tj, dk, dt = form_strains(phi[j], kap, tau)
+            g -= h * (A * (strains[j, 1] - kj) * dk + C * (strains[j, 2] - tj) * dt)
+        out[j] = -g / (zeta * h)
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def advance(phi, dt, n_sub, h, eps, k, D, zeta, A, C, strains, kap, tau, coupled, kT, normals):
+    """Advance φ by ``dt`` in ``n_sub`` Euler(–Maruyama) steps; ``normals`` (n_sub, n) unit
+    Gaussians for kT > 0."""
+    n = phi.shape[0]
+    rate = np.empty(n)
+    s = dt / n_sub
+    amp = math.sqrt(2.0 * kT * s / (zeta * h)) if kT > 0.0 else 0.0
+    for i in range(n_sub):
+        phi_rate(phi, h, eps, k, D, zeta, A, C, strains, kap, tau, coupled, rate)
+        for j in range(n):
+            phi[j] += s * rate[j]
+            if amp > 0.0:
+                phi[j] += amp * normals[i, j]
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def intrinsic(phi, kap, tau, out_k, out_t):
+    """The joints' intrinsic curvature and torsion at order parameters φ."""
+    for j in range(phi.shape[0]):
+        out_k[j], out_t[j], _, _ = form_strains(phi[j], kap, tau)
+
+
+def stable_substep(h: float, k: float, D: float, zeta: float, kap, tau, A: float, C: float) -> float:
+    """Largest stable explicit step [s]: ζ/(stiffest curvature of the energy in φ), the
+    landscape (≤ k), the walls (4D/h²) and the rod (A κ'² + C τ'²), with a margin of 2."""
+    dk = np.max(np.abs(np.diff(kap))) if len(kap) > 1 else 0.0
+    dt = np.max(np.abs(np.diff(tau))) if len(tau) > 1 else 0.0
+    stiff = 2.0 * k + 4.0 * D / h ** 2 + A * dk ** 2 + C * dt ** 2
+    return 0.5 * zeta / stiff
+
+
+def front_speed(barrier: float, wall_stiffness: float, friction: float, de: float) -> float:
+    """Speed [µm/s] of a straight wall between forms m and m+1 of energies differing by
+    ``de`` = ε_{m+1} − ε_m (continuum Nagumo front, c = √(Dk/2)(1 − 2a)/ζ with k = 64·barrier,
+    a = 1/2 + 6 de/k), counted positive into form m+1: form m grows when de > 0."""
+    k = 64.0 * barrier
+    a = 0.5 + 6.0 * de / k
+    return math.sqrt(wall_stiffness * k / 2.0) * (2.0 * a - 1.0) / friction
+
+
+def wall_width(barrier: float, wall_stiffness: float) -> float:
+    """Width √(2D/k) [µm] of a wall's tanh profile (k = 64·barrier)."""
+    return math.sqrt(2.0 * wall_stiffness / (64.0 * barrier))
+
+
+def forms_of(phi) -> np.ndarray:
+    """The form index of each joint: φ rounded (clipped at 0)."""
+    return np.maximum(np.rint(np.asarray(phi)), 0).astype(int)
+
+
+def domain_walls(phi) -> np.ndarray:
+    """The number of walls (neighbouring joints of different forms) of each record (…, n)."""
+    f = forms_of(phi)
+    return np.count_nonzero(np.diff(f, axis=-1), axis=-1)
+
+
+def fractions(phi, n_forms: int) -> np.ndarray:
+    """(…, n_forms) fraction of the joints in each form."""
+    f = np.minimum(forms_of(phi), n_forms - 1)
+    return np.stack([np.mean(f == m, axis=-1) for m in range(n_forms)], axis=-1)

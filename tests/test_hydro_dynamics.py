@@ -37,9 +37,13 @@ def test_option_defaults_validation_and_spec():
     assert sim.metadata()["hydrodynamics"] == "sbt"
 
 
-def test_thermal_runs_refuse_the_nonlocal_mobility():
-    with pytest.raises(ParameterError, match="hydrodynamics"):
-        Simulator(SHORT, Motor(0.5), thermal=True, hydrodynamics=SBT)
+def test_thermal_runs_take_the_nonlocal_mobility_with_the_implicit_scheme_only():
+    # thermal noise with SBT: tests/test_hydro_thermal.py; CVODE has no noise
+    sim = Simulator(SHORT, Motor(0.5), thermal=True, hydrodynamics=SBT)
+    assert sim.solver.method == "implicit"
+    with pytest.raises(ParameterError, match="method"):
+        Simulator(SHORT, Motor(0.5), thermal=True, hydrodynamics=SBT,
+                  solver=SolverOptions(method="cvode"))
 
 
 def test_local_mobility_is_the_kernels_drag():

@@ -86,11 +86,7 @@ def effective_mobility(x, radius, viscosity, anchor, sphere_radius=0.0) -> np.nd
         R = _attach(np.linalg.inv(big), n1)
     else:
         R = np.linalg.inv(M)
-    free = np.ones(3 * n1, bool)
-    if anchor == L.FIXED:
-        free[:3] = False
-    elif anchor == L.AXIAL:
-        free[:2] = False
+    free = moving_components(anchor, n1)
     out = np.zeros((3 * n1, 3 * n1))
     out[np.ix_(free, free)] = np.linalg.inv(R[np.ix_(free, free)])
     return out
@@ -106,12 +102,30 @@ def _attach(R: np.ndarray, n1: int) -> np.ndarray:
     return out
 
 
-def correction(x, h, gammas, anchor, zeta, radius, viscosity, sphere_radius=0.0) -> np.ndarray:
+def correction(x, h, gammas, anchor, zeta, radius, viscosity, sphere_radius=0.0,
+               symmetric=False) -> np.ndarray:
     """ΔM = M_eff − M_loc at frozen bead positions x (:func:`effective_mobility`,
-    :func:`local_mobility`); ``gammas`` (γ∥, γ⊥, γR) of the local drag."""
-    return (effective_mobility(x, radius, viscosity, anchor, sphere_radius)
-            - local_mobility(x, h, gammas[0], gammas[1], anchor, zeta))
+    :func:`local_mobility`); ``gammas`` (γ∥, γ⊥, γR) of the local drag. ``symmetric``: M_eff
+    replaced by its symmetric part (M_eff + M_effᵀ)/2, the mobility of a thermal run (the
+    collocation matrix is not exactly symmetric, and fluctuation–dissipation needs the noise
+    covariance 2kT M to be the symmetric mobility that also moves the filament)."""
+    me = effective_mobility(x, radius, viscosity, anchor, sphere_radius)
+    if symmetric:
+        me = 0.5 * (me + me.T)
+    return me - local_mobility(x, h, gammas[0], gammas[1], anchor, zeta)
+
+
+def moving_components(anchor, n1: int) -> np.ndarray:
+    """Mask of the 3·n1 bead velocity components the anchor leaves free (bead 0: none when
+    ``FIXED``, z only on a load sphere ``AXIAL``, all for ``FREE``); the mobility's rows and
+    columns of the others are zero."""
+    free = np.ones(3 * n1, bool)
+    if anchor == L.FIXED:
+        free[:3] = False
+    elif anchor == L.AXIAL:
+        free[:2] = False
+    return free
 
 
 __all__ = ["Hydrodynamics", "MODELS", "REFRESH", "correction", "effective_mobility",
-           "local_mobility", "sphere_coupling"]
+           "local_mobility", "moving_components", "sphere_coupling"]

@@ -53,6 +53,8 @@ class CvodeStepper:
 
     fixed_step = None
     rng_state = None
+    #: restart CVODE where a frozen nonlocal mobility is rebuilt (else it steps over the jump)
+    restart_on_refresh = False
 
     def __init__(self, model, t0: float, y0: np.ndarray, rtol: float = 1e-6,
                  atol: float = 1e-8, max_step: float = 0.0, max_num_steps: int = 100000):
@@ -138,8 +140,18 @@ class CvodeStepper:
         self._solver.init_step(self.t, self.y)
 
     def advance(self, t: float) -> np.ndarray:
+        m = self.model
+        frozen = m.iprm[K.I_HYDRO] != K.HYDRO_LOCAL and m.hydrodynamics.refresh > 0
         with contextlib.redirect_stdout(sys.stderr):  # scikit-sundae prints CVODE's errors
-            res = self._solver.step(t)
+            if not frozen:
+                res = self._solver.step(t)
+            else:  # step by step: the frozen ΔM is checked (and rebuilt) after every step
+                while True:
+                    res = self._solver.step(t, method="onestep", tstop=t)
+                    if not res.success or res.t >= t or not np.all(np.isfinite(res.y)):
+                        break
+                    if m.refresh_mobility(res.y) and self.restart_on_refresh:
+                        self.reset(res.t, res.y)
         if not res.success or not np.all(np.isfinite(res.y)):
             raise SimulationError(f"CVODE failed at t = {res.t:.6g} s: {res.message}")
         self.t, self.y = float(res.t), np.array(res.y, float)

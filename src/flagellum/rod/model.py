@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..helix import DiscreteHelix, discrete_helix
-from ..hydro.dynamics import correction
+from ..hydro.dynamics import correction, rigid_fit, rotate_correction
 from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
 from ..params import Params
@@ -230,9 +230,15 @@ class RodModel:
         if not self._nonlocal:
             return False
         x = positions(y)
-        if not force and self._frozen is not None and (
-                np.max(np.abs(x - self._frozen)) <= self.hydrodynamics.refresh):
-            return False
+        if not force and self._frozen is not None:
+            if np.max(np.abs(x - self._frozen)) <= self.hydrodynamics.refresh:
+                return False
+            # a rigid rotation of the frozen beads (about bead 0): turn ΔM instead of rebuilding
+            rot, resid = rigid_fit(self._frozen, x, _ANCHOR[self.boundary.anchor])
+            if resid <= self.hydrodynamics.refresh:
+                self._ws[-1][:] = rotate_correction(self._ws[-1], rot)
+                self._frozen = x[0] + (self._frozen - self._frozen[0]) @ rot.T
+                return True
         self._ws[-1][:] = correction(x, *self.mobility_arguments(), symmetric=self.symmetric_mobility)
         self._frozen = x.copy()
         return True

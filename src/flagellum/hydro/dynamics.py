@@ -99,14 +99,11 @@ def effective_mobility(x, radius, viscosity, anchor, sphere_radius=0.0) -> np.nd
         return out
     # no sphere: ((M⁻¹)_ff)⁻¹ is the Schur complement M_ff − M_fc M_cc⁻¹ M_cf of the
     # constrained components c (O(N²) instead of two dense inverses)
-    free = moving_components(anchor, n1)
-    c = ~free
+    k = int(np.count_nonzero(~moving_components(anchor, n1)))  # the first k components
+    if k == 0:
+        return M
     out = np.zeros((3 * n1, 3 * n1))
-    if c.any():
-        mfc = M[np.ix_(free, c)]
-        out[np.ix_(free, free)] = M[np.ix_(free, free)] - mfc @ np.linalg.solve(M[np.ix_(c, c)], M[np.ix_(c, free)])
-    else:
-        out[:] = M
+    out[k:, k:] = M[k:, k:] - M[k:, :k] @ np.linalg.solve(M[:k, :k], M[:k, k:])
     return out
 
 

@@ -130,9 +130,8 @@ class CvodeStepper:
             raise SimulationError(f"singular preconditioner at t = {t:.6g} s")
 
     def _psolve(self, t, y, yp, rvec, zvec, gamma, delta, lr):
-        z = np.array(rvec, float)
-        band_solve(self._pab, self._kl, self._ku, self._ipiv, z, self._pivoted)
-        zvec[:] = z
+        zvec[:] = rvec
+        band_solve(self._pab, self._kl, self._ku, self._ipiv, zvec, self._pivoted)
 
     def _check_mobility(self, t, y):
         """Rebuild (or turn) the frozen ΔM if the beads of y have moved too far; with

@@ -75,24 +75,30 @@ def main(argv=None) -> dict:
     ap.add_argument("--window", type=float, default=0.02)
     ap.add_argument("--warmup", type=float, default=0.02)
     ap.add_argument("--no-stability", action="store_true")
+    ap.add_argument("--no-lab", action="store_true", help="skip the lab-frame run and the stability analysis")
+    ap.add_argument("--only-stability", action="store_true")
     ap.add_argument("--out", default="benchmarks/bench_sbt.json")
     a = ap.parse_args(argv)
     timed_run(20, 1.0, "sbt", 0.0, 0.001)  # compile everything first
     timed_run(20, 1.0, "rft", 0.0, 0.001)
     out: dict = {"load_average_before": load_average(), "window": a.window, "warmup": a.warmup,
                  "runs": []}
-    for n in a.n:
+    for n in ([] if a.only_stability else a.n):
         for torque in (1.0, 2.0):
             pair = {m: timed_run(n, torque, m, a.warmup, a.window) for m in ("rft", "sbt")}
             pair["sbt"]["cpu_ratio_to_rft"] = (pair["sbt"]["cpu_per_simulated_second"]
                                                / pair["rft"]["cpu_per_simulated_second"])
             out["runs"] += [pair["rft"], pair["sbt"]]
             print(json.dumps(pair["sbt"]), flush=True)
-    try:
-        out["lab_frame_rtol_1e-8"] = timed_run(50, 1.0, "sbt", 0.0, 0.01, frame="lab", rtol=1e-8)
-    except Exception as exc:  # noqa: BLE001 - a benchmark reports failures
-        out["lab_frame_rtol_1e-8"] = {"error": str(exc)}
-    print(json.dumps(out["lab_frame_rtol_1e-8"]), flush=True)
+            _save(a.out, out)
+    if a.no_lab:
+        return _save(a.out, out)
+    if not a.only_stability:
+        try:
+            out["lab_frame_rtol_1e-8"] = timed_run(50, 1.0, "sbt", 0.0, 0.01, frame="lab", rtol=1e-8)
+        except Exception as exc:  # noqa: BLE001 - a benchmark reports failures
+            out["lab_frame_rtol_1e-8"] = {"error": str(exc)}
+        print(json.dumps(out["lab_frame_rtol_1e-8"]), flush=True)
     if not a.no_stability:
         from flagellum.analysis.stability import critical_torque
 
@@ -103,8 +109,12 @@ def main(argv=None) -> dict:
                 "M_c1": ct.critical_torque, "F_c1": ct.critical_force,
                 "cpu_seconds": time.process_time() - c0, "wall_seconds": time.perf_counter() - w0}
             print(model, json.dumps(out[f"critical_torque_{model}"]), flush=True)
+    return _save(a.out, out)
+
+
+def _save(path: str, out: dict) -> dict:
     out["load_average_after"] = load_average()
-    with open(a.out, "w") as f:
+    with open(path, "w") as f:
         json.dump(out, f, indent=1)
     return out
 

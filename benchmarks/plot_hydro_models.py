@@ -32,13 +32,17 @@ LOAD_SPHERE = {"rft": [(0.0, 1.066), (0.5, 1.552), (1.0, 2.006)],
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="docs/img/hydro_rft_vs_sbt.png")
+    ap.add_argument("--replot", action="store_true", help="redraw from the .json next to --out")
     a = ap.parse_args(argv)
     from flagellum._plot import pyplot
 
     plt = pyplot()
     p = Params()
     data = {}
-    for model in ("rft", "sbt"):
+    if a.replot:
+        with open(a.out.rsplit(".", 1)[0] + ".json") as fh:
+            data = json.load(fh)
+    for model in () if a.replot else ("rft", "sbt"):
         hyd = Hydrodynamics(model)
         mc = critical_torque(p, hydrodynamics=hyd)
         torques = np.linspace(0.1, 1.25 * mc.critical_torque, 12)
@@ -60,11 +64,11 @@ def main(argv=None):
         axs[1].plot(inv_a, mc1, "-o", color=color, label=model.upper())
     axs[0].axvspan(1.0, 1.5, color="0.9", zorder=0, label="biological motor torques")
     axs[0].set(xlabel="motor torque M [pN·µm]", ylabel="thrust F [pN]",
-               title="(a) anchored filament, N = 50: thrust on the aligned branch")
+               title="(a) anchored, N = 50: aligned branch")
     axs[0].legend(fontsize=7)
     axs[1].axhspan(1.0, 1.5, color="0.9", zorder=0)
     axs[1].set(xlabel="1/a [1/µm]", ylabel="M_c1 [pN·µm]",
-               title="(b) load sphere of radius a (SBT: sphere centred on bead 0)")
+               title="(b) load sphere of radius a (centred on bead 0)")
     axs[1].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(a.out, dpi=130)

@@ -147,9 +147,6 @@ def check_setup(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynam
     (also what a sweep checks of its points before the first runs)."""
     if thermal and params.fluid.kT <= 0:
         raise ParameterError("kT", params.fluid.kT, "> 0 for a thermal run")
-    if thermal and not hydrodynamics.is_local:
-        raise ParameterError("hydrodynamics", hydrodynamics.model, "'rft' for a thermal "
-                             "run (noise of the nonlocal mobility is not implemented)")
     if thermal and solver.method != "implicit":
         raise ParameterError("method", solver.method, "'implicit' for a thermal run")
     check_cell(params, solver, hydrodynamics, thermal, boundary)

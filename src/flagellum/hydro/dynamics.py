@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from . import local as L
 from . import sbt
@@ -43,17 +44,25 @@ def local_mobility(x, h, gpar, gperp, anchor, zeta) -> np.ndarray:
     """Block-diagonal mobility (3(n+1) square) of the local drag of :mod:`flagellum.hydro.local`
     at bead positions x: the operator of :func:`flagellum.rod.kernels.rhs` without ΔM."""
     n = len(x) - 1
-    T = bond_tangents(x)
     M = np.zeros((3 * (n + 1), 3 * (n + 1)))
+    _fill_local(bond_tangents(x), n, h, gpar, gperp, anchor, zeta, M)
+    return M
+
+
+@njit(cache=True)
+def _fill_local(T, n, h, gpar, gperp, anchor, zeta, M):
     for i in range(n + 1):
         tx, ty, tz, zpar, zperp, mode = L.bead_friction(T, i, n, h, gpar, gperp, anchor, zeta)
-        blk = M[3 * i:3 * i + 3, 3 * i:3 * i + 3]
+        o = 3 * i
         if mode == L.AXIAL:
-            blk[2, 2] = 1.0 / zpar
+            M[o + 2, o + 2] = 1.0 / zpar
         elif mode == L.FREE:
-            t = np.array([tx, ty, tz])
-            blk[:] = np.eye(3) / zperp + (1.0 / zpar - 1.0 / zperp) * np.outer(t, t)
-    return M
+            t = (tx, ty, tz)
+            for a in range(3):
+                for b in range(a, 3):  # symmetric to the last bit
+                    v = (1.0 / zpar - 1.0 / zperp) * t[a] * t[b] + (1.0 / zperp if a == b else 0.0)
+                    M[o + a, o + b] = v
+                    M[o + b, o + a] = v
 
 
 def sphere_coupling(r: np.ndarray, a: float, viscosity: float) -> np.ndarray:
@@ -84,15 +93,17 @@ def effective_mobility(x, radius, viscosity, anchor, sphere_radius=0.0) -> np.nd
         big[3 * n1:, :3 * n1] = G.T
         big[3 * n1:, 3 * n1:] = np.eye(3) / (6 * math.pi * viscosity * sphere_radius)
         R = _attach(np.linalg.inv(big), n1)
-    else:
-        R = np.linalg.inv(M)
-    free = np.ones(3 * n1, bool)
-    if anchor == L.FIXED:
-        free[:3] = False
-    elif anchor == L.AXIAL:
-        free[:2] = False
+        free = moving_components(anchor, n1)
+        out = np.zeros((3 * n1, 3 * n1))
+        out[np.ix_(free, free)] = np.linalg.inv(R[np.ix_(free, free)])
+        return out
+    # no sphere: ((M⁻¹)_ff)⁻¹ is the Schur complement M_ff − M_fc M_cc⁻¹ M_cf of the
+    # constrained components c (O(N²) instead of two dense inverses)
+    k = int(np.count_nonzero(~moving_components(anchor, n1)))  # the first k components
+    if k == 0:
+        return M
     out = np.zeros((3 * n1, 3 * n1))
-    out[np.ix_(free, free)] = np.linalg.inv(R[np.ix_(free, free)])
+    out[k:, k:] = M[k:, k:] - M[k:, :k] @ np.linalg.solve(M[:k, :k], M[:k, k:])
     return out
 
 
@@ -106,12 +117,62 @@ def _attach(R: np.ndarray, n1: int) -> np.ndarray:
     return out
 
 
-def correction(x, h, gammas, anchor, zeta, radius, viscosity, sphere_radius=0.0) -> np.ndarray:
+def rigid_fit(x_ref, x, anchor):
+    """(R, residual): the rotation R about bead 0 that best maps the beads x_ref onto x, among
+    those under which the anchored problem (and so ΔM) is invariant — about e_z only on a load
+    sphere (``AXIAL``), any for ``FIXED`` and ``FREE`` (Kabsch's least-squares fit) — and the
+    largest bead distance left, |x − x_0 − R(x_ref − x_ref,0)| (``FREE``: relative to bead 0,
+    which carries the body)."""
+    a, b = x_ref - x_ref[0], x - x[0]
+    if anchor == L.AXIAL:
+        s = np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+        c = np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])
+        phi = math.atan2(s, c)
+        R = np.array([[math.cos(phi), -math.sin(phi), 0.0], [math.sin(phi), math.cos(phi), 0.0],
+                      [0.0, 0.0, 1.0]])
+    else:
+        u, _, vt = np.linalg.svd(b.T @ a)
+        d = np.sign(np.linalg.det(u @ vt))
+        R = u @ np.diag([1.0, 1.0, d]) @ vt
+    resid = np.max(np.abs(b - a @ R.T))
+    if anchor != L.FREE:
+        resid = max(resid, float(np.max(np.abs(x[0] - x_ref[0]))))
+    return R, resid
+
+
+def rotate_correction(dm, R):
+    """ΔM of the beads turned by R (about bead 0): each 3×3 block D_ij becomes R D_ij Rᵀ
+    (the mobility of a rotated configuration, by the isotropy of Stokes flow)."""
+    n1 = dm.shape[0] // 3
+    d = dm.reshape(n1, 3, n1, 3)
+    return np.einsum("ab,ibjc,dc->iajd", R, d, R, optimize=True).reshape(dm.shape)
+
+
+def correction(x, h, gammas, anchor, zeta, radius, viscosity, sphere_radius=0.0,
+               symmetric=False) -> np.ndarray:
     """ΔM = M_eff − M_loc at frozen bead positions x (:func:`effective_mobility`,
-    :func:`local_mobility`); ``gammas`` (γ∥, γ⊥, γR) of the local drag."""
-    return (effective_mobility(x, radius, viscosity, anchor, sphere_radius)
-            - local_mobility(x, h, gammas[0], gammas[1], anchor, zeta))
+    :func:`local_mobility`); ``gammas`` (γ∥, γ⊥, γR) of the local drag. ``symmetric``: M_eff
+    replaced by its symmetric part (M_eff + M_effᵀ)/2, the mobility of a thermal run (the
+    collocation matrix is not exactly symmetric, and fluctuation–dissipation needs the noise
+    covariance 2kT M to be the symmetric mobility that also moves the filament)."""
+    me = effective_mobility(x, radius, viscosity, anchor, sphere_radius)
+    if symmetric:
+        me = 0.5 * (me + me.T)
+    return me - local_mobility(x, h, gammas[0], gammas[1], anchor, zeta)
+
+
+def moving_components(anchor, n1: int) -> np.ndarray:
+    """Mask of the 3·n1 bead velocity components the anchor leaves free (bead 0: none when
+    ``FIXED``, z only on a load sphere ``AXIAL``, all for ``FREE``); the mobility's rows and
+    columns of the others are zero."""
+    free = np.ones(3 * n1, bool)
+    if anchor == L.FIXED:
+        free[:3] = False
+    elif anchor == L.AXIAL:
+        free[:2] = False
+    return free
 
 
 __all__ = ["Hydrodynamics", "MODELS", "REFRESH", "correction", "effective_mobility",
-           "local_mobility", "sphere_coupling"]
+           "local_mobility", "moving_components", "rigid_fit", "rotate_correction",
+           "sphere_coupling"]

@@ -30,13 +30,13 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from ..errors import ParameterError
 from .local import bead_node
 
 #: ε / r of the regularized Stokeslet line that reproduces slender-body theory of radius r
 EPS_PER_RADIUS = math.exp(0.5)
-_ROWS = 64
 
 
 def _check_positions(positions) -> np.ndarray:
@@ -82,55 +82,68 @@ def centreline_nodes(positions):
     return t, w
 
 
-def _segment_blocks(x: np.ndarray, eps: np.ndarray, cutoff: float | None, rows=slice(None)):
-    """3×3 blocks G_a, G_b (shape (targets, n, 3, 3)): ∫ S_ε(x_i − X(s)) w(s) ds over segment j
-    with w = 1 − s/ℓ_j (its first bead) and w = s/ℓ_j (its second bead).
+@njit(cache=True, error_model="numpy")  # no fastmath: the closed forms are checked to 1e-11
+def _segment_kernel(x, eps, cutoff, K):
+    """K[i, k] += ∫ S_ε(x_i − X(s)) φ_k(s) ds (3×3 blocks, without 1/8πη) over every segment j:
+    the hat function of its first bead (weight 1 − s/ℓ_j) goes to k = j, that of its second
+    (s/ℓ_j) to k = j + 1. ``cutoff`` < 0: the whole filament; else only the part of each
+    segment within that arc length of bead i.
 
     In the coordinate σ = s − b along the segment (b the projection of x_i − P_j on its
     direction e, p the perpendicular part, c² = |p|² + ε², ρ = √(σ² + c²)) the kernel is
     [(1 + ε²/ρ²) 1 + (p − σe)(p − σe)ᵀ/ρ²]/ρ, so all that is needed are the moments
     ∫ σᵏ/ρ (k = 0, 1) and ∫ σᵏ/ρ³ (k = 0…3), here in cancellation-free closed forms.
     """
-    p0, d = x[:-1], np.diff(x, axis=0)
-    ell = np.linalg.norm(d, axis=1)
-    e = d / ell[:, None]
-    r0 = x[rows, None, :] - p0[None, :, :]  # (targets, n, 3)
-    b = np.einsum("ijk,jk->ij", r0, e)
-    perp = r0 - b[..., None] * e[None]
-    c2 = np.einsum("ijk,ijk->ij", perp, perp) + eps[None, :] ** 2
-    c = np.sqrt(c2)
-    lo, hi = np.zeros_like(b), np.broadcast_to(ell, b.shape).copy()
-    if cutoff is not None:  # keep the part of each segment within arc length `cutoff` of bead i
-        arc = np.r_[0.0, np.cumsum(ell)]
-        rel = arc[rows, None] - arc[None, :-1]  # arc length of bead i from the start of segment j
-        lo = np.clip(rel - cutoff, 0.0, ell)
-        hi = np.clip(rel + cutoff, 0.0, ell)
-    s0, s1 = lo - b, hi - b
-    q0, q1 = np.sqrt(s0 * s0 + c2), np.sqrt(s1 * s1 + c2)
-    J0 = np.arcsinh(s1 / c) - np.arcsinh(s0 / c)
-    J1 = (s1 - s0) * (s1 + s0) / (q1 + q0)  # ρ1 − ρ0
-    # σ/(c²ρ) = sgn σ (1/c² − 1/(ρ(ρ + |σ|))): no cancellation when both ends lie on one side
-    K0 = (np.sign(s1) - np.sign(s0)) / c2 - (np.sign(s1) / (q1 * (q1 + np.abs(s1)))
-                                             - np.sign(s0) / (q0 * (q0 + np.abs(s0))))
-    K1 = J1 / (q0 * q1)
-    K2 = J0 - (s1 / q1 - s0 / q0)
-    K3 = J1 - c2 * K1
-    eps2 = (eps ** 2)[None, :]
-    ee = e[:, :, None] * e[:, None, :]
-    pp = perp[..., :, None] * perp[..., None, :]
-    pe = perp[..., :, None] * e[None, :, None, :]
-    pe = pe + np.swapaxes(pe, -1, -2)
-    eye = np.eye(3)
-
-    def block(beta0, beta1):
-        m0, m1 = beta0 * K0 + beta1 * K1, beta0 * K1 + beta1 * K2
-        m2 = beta0 * K2 + beta1 * K3
-        iso = beta0 * J0 + beta1 * J1 + eps2 * m0
-        return (iso[..., None, None] * eye + m0[..., None, None] * pp - m1[..., None, None] * pe
-                + m2[..., None, None] * ee[None])
-
-    inv = 1.0 / ell[None, :]
-    return block(1.0 - b * inv, -inv), block(b * inv, inv)
+    n1 = x.shape[0]
+    n = n1 - 1
+    ell = np.empty(n)
+    e = np.empty((n, 3))
+    arc = np.zeros(n1)
+    for j in range(n):
+        d0, d1, d2 = x[j + 1, 0] - x[j, 0], x[j + 1, 1] - x[j, 1], x[j + 1, 2] - x[j, 2]
+        ell[j] = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        e[j, 0], e[j, 1], e[j, 2] = d0 / ell[j], d1 / ell[j], d2 / ell[j]
+        arc[j + 1] = arc[j] + ell[j]
+    p = np.empty(3)
+    for i in range(n1):
+        for j in range(n):
+            r0, r1, r2 = x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], x[i, 2] - x[j, 2]
+            b = r0 * e[j, 0] + r1 * e[j, 1] + r2 * e[j, 2]
+            p[0], p[1], p[2] = r0 - b * e[j, 0], r1 - b * e[j, 1], r2 - b * e[j, 2]
+            eps2 = eps[j] * eps[j]
+            c2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + eps2
+            c = math.sqrt(c2)
+            lo, hi = 0.0, ell[j]
+            if cutoff >= 0.0:  # the part of segment j within arc length `cutoff` of bead i
+                rel = arc[i] - arc[j]
+                lo = min(max(rel - cutoff, 0.0), ell[j])
+                hi = min(max(rel + cutoff, 0.0), ell[j])
+            s0, s1 = lo - b, hi - b
+            q0, q1 = math.sqrt(s0 * s0 + c2), math.sqrt(s1 * s1 + c2)
+            J0 = math.asinh(s1 / c) - math.asinh(s0 / c)
+            J1 = (s1 - s0) * (s1 + s0) / (q1 + q0)  # ρ1 − ρ0
+            # σ/(c²ρ) = sgn σ (1/c² − 1/(ρ(ρ + |σ|))): no cancellation when both ends lie on one side
+            g1, g0 = np.sign(s1), np.sign(s0)
+            K0 = (g1 - g0) / c2 - (g1 / (q1 * (q1 + abs(s1))) - g0 / (q0 * (q0 + abs(s0))))
+            K1 = J1 / (q0 * q1)
+            K2 = J0 - (s1 / q1 - s0 / q0)
+            K3 = J1 - c2 * K1
+            inv = 1.0 / ell[j]
+            for side in range(2):  # weight β0 + β1 σ of the first / second bead's hat function
+                if side == 0:
+                    beta0, beta1, k = 1.0 - b * inv, -inv, j
+                else:
+                    beta0, beta1, k = b * inv, inv, j + 1
+                m0, m1 = beta0 * K0 + beta1 * K1, beta0 * K1 + beta1 * K2
+                m2 = beta0 * K2 + beta1 * K3
+                iso = beta0 * J0 + beta1 * J1 + eps2 * m0
+                for a in range(3):
+                    for bb in range(3):
+                        v = m0 * p[a] * p[bb] - m1 * (p[a] * e[j, bb] + e[j, a] * p[bb]) \
+                            + m2 * e[j, a] * e[j, bb]
+                        if a == bb:
+                            v += iso
+                        K[i, k, a, bb] += v
 
 
 def mobility(positions, radius, viscosity, weights=None, cutoff=None) -> np.ndarray:
@@ -152,11 +165,7 @@ def mobility(positions, radius, viscosity, weights=None, cutoff=None) -> np.ndar
         raise ParameterError("cutoff", cutoff, "> 0 (an arc length) or None")
     eps = EPS_PER_RADIUS * _segment_radius(radius, n)
     K = np.zeros((n + 1, n + 1, 3, 3))
-    for start in range(0, n + 1, _ROWS):  # bounded temporaries: _ROWS targets at a time
-        rows = slice(start, min(start + _ROWS, n + 1))
-        ga, gb = _segment_blocks(x, eps, cutoff, rows)
-        K[rows, :-1] += ga
-        K[rows, 1:] += gb
+    _segment_kernel(x, eps, -1.0 if cutoff is None else float(cutoff), K)
     if weights is None:
         _, w = centreline_nodes(x)
     else:

@@ -27,10 +27,12 @@ import math
 
 import numpy as np
 from numba import njit
+from scipy.linalg import solve_triangular
 
 from .._jit import FASTMATH
 from ..errors import SimulationError
 from ..hydro import local as L
+from ..hydro.dynamics import correction, local_mobility, moving_components
 from ..rod import kernels as K
 from .banded import band_factor, band_solve
 
@@ -81,8 +83,10 @@ def _mobility(y, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_h, ws, out, g
 
 @njit(cache=True)
 def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, ym, f1, f2,
-                      zf, zm, zh, xi_f, xi_m, xi_h):
-    """b = Δt M(y) ξ + Δt kT ∂·M(y) (random finite difference) from the unit normals g."""
+                      zf, zm, zh, xi_f, xi_m, xi_h, xi_bead):
+    """b = Δt M(y) ξ + Δt kT ∂·M(y) (random finite difference) from the unit normals g.
+    ``xi_bead`` (n+1, 3), if not empty, replaces the bead part of ξ (the thermal forces of a
+    nonlocal mobility, :meth:`ImplicitStepper._nonlocal_increment`)."""
     n1 = iprm[K.I_N] + 1
     ny = y.shape[0]
     o = 0
@@ -93,6 +97,8 @@ def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, y
     gh = g[o:o + 3]
     o += 3
     thermal_forces(y, prm, iprm, ref_u, ref_e, kT, dt, gf, gm, gh, ws, xi_f, xi_m, xi_h)
+    if xi_bead.shape[0] > 0:
+        xi_f[:, :] = xi_bead
     _mobility(y, prm, iprm, ref_u, ref_e, ref_m, xi_f, xi_m, xi_h, ws, f1, 0)
     for i in range(ny):
         b[i] = dt * f1[i]
@@ -173,7 +179,7 @@ def _anderson(y, d, f_prev, g_prev, df, dg, a, gam, na, m):
 @njit(cache=True)
 def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT, torques, normals,
                    ws, ab, ipiv, backup, jac_age, jac_every, work, xwork, tol, max_iter, slow, hist,
-                   colors):
+                   colors, increments):
     """Advance y in place by ``n_steps`` drift-implicit steps of size ``dt``.
 
     θ-method (``theta`` in [1/2, 1])::
@@ -190,7 +196,9 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
     oscillation of frequency ν only at the rate ≈ ν⁴Δt³/4 instead of ν²Δt/2 (implicit Euler
     suppresses the buckling mode, ν ≈ 1400 rad/s in the co-rotating frame, at Δt = 5e-5 s).
     Its first step, and every step after a change of Δt, is an implicit Euler step.
-    b_n = Δt M(y_n) ξ_n + Δt kT ∂·M(y_n) is the thermal increment.
+    b_n = Δt M(y_n) ξ_n + Δt kT ∂·M(y_n) is the thermal increment; ``increments``
+    (n_steps, ny), if it has columns, gives b_n of each step instead (a nonlocal mobility,
+    whose increment is computed outside; ``normals`` is then not used).
 
     ``ab``, ``ipiv``: the factorized iteration matrix, kept between calls (``backup``:
     scratch for :func:`~flagellum.integrate.banded.band_factor`). ``colors`` = (color, lo, hi)
@@ -233,9 +241,11 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
         K.rechart_all(y, n, ref_u, ref_e, T, E1, E2, LEN, S, ws[9])
         yn[:] = y
         b[:] = 0.0
-        if kT > 0.0:
+        if increments.shape[1] > 0:
+            b[:] = increments[k]
+        elif kT > 0.0:
             thermal_increment(y, dt, kT, normals[k], prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, ym,
-                              f1, f2, zf, zm, zh, xi_f, xi_m, xi_h)
+                              f1, f2, zf, zm, zh, xi_f, xi_m, xi_h, zf[:0])
         two = bdf2 and hist[0] == 1.0 and abs(hist[1] - dt) <= 1e-9 * dt
         beta = 2.0 / 3.0 if two else (1.0 if bdf2 else theta)
         for i in range(ny):  # d ← everything of the residual that does not depend on y_{n+1}
@@ -352,6 +362,12 @@ class ImplicitStepper:
         self._xwork = np.zeros(ny + kl + ku)
         self._hist = np.zeros(4)
         self._n_normals = (4 * (model.n + 1) + 3 + ny) if self.kT > 0 else 0
+        # thermal noise of a nonlocal mobility: increments built outside the kernel each step
+        self._nonlocal_noise = self.kT > 0 and model.iprm[K.I_HYDRO] != K.HYDRO_LOCAL
+        if self._nonlocal_noise:
+            model.symmetric_mobility = True  # fluctuation–dissipation: noise of M_s, drift M_s F
+            model.refresh_mobility(np.asarray(y0, float), force=True)
+        self._no_increments = np.zeros((0, 0))
         self.n_steps = self.n_iter = self.n_jac = 0
         self.reset(t0, y0)
 
@@ -399,17 +415,73 @@ class ImplicitStepper:
         return self.y
 
     def _steps(self, t0, k, dt, times, normals) -> int:
+        if self._nonlocal_noise:  # one step at a time: the increment needs the mobility at y_n
+            for j in range(k):
+                inc = self._nonlocal_increment(self.y, normals[j], dt)
+                if self._kernel_steps(t0 + j * dt, 1, dt, times[j:j + 1], normals[j:j + 1], inc[None]) != 1:
+                    return j
+            return k
+        return self._kernel_steps(t0, k, dt, times, normals, self._no_increments)
+
+    def _kernel_steps(self, t0, k, dt, times, normals, increments) -> int:
         m = self.model
         torques = np.array([m.motor(s) for s in times])
         status, done, it, nj, self._jac_age = implicit_steps(
             self.y, t0, k, dt, self.theta, m.prm, m.iprm, m.ref_u, m.ref_e, m.ref_m, self.kT, torques,
             np.ascontiguousarray(normals), m.kernel_arrays[-1], self._ab, self._ipiv, self._backup, self._jac_age,
             self.jac_every, self._work, self._xwork, self.tol, self.max_iter, self.slow, self._hist,
-            m.jacobian_colors(self._kl, self._ku))
+            m.jacobian_colors(self._kl, self._ku), increments)
         self.n_steps += done
         self.n_iter += it
         self.n_jac += nj
         return done if status != 0 else k
+
+    def _nonlocal_increment(self, y, g, dt) -> np.ndarray:
+        """Thermal increment b = Δt M ξ + Δt kT ∂·M of one step from y with the nonlocal
+        mobility (docs/hydrodynamics.md, "Thermal noise").
+
+        M is rebuilt at y (its symmetric part M_s: :attr:`RodModel.symmetric_mobility`); the
+        bead forces are ξ = √(2kT/Δt) L⁻ᵀ g with M_s = L Lᵀ (Cholesky, over the components
+        the anchor leaves free), so that M_s ξ = √(2kT/Δt) L g has the covariance 2kT M_s/Δt;
+        spins and hook keep their local noise. The Itô drift is the random finite difference
+        of :func:`thermal_increment` for the local part and the charts (ΔM held at y) plus
+        kT [ΔM(x + δW) − ΔM(x)] W/δ for the nonlocal correction (Delong et al. 2014).
+        """
+        m = self.model
+        prm, iprm, ref_u, ref_e, ref_m, _, _, _, ws = m.kernel_arrays
+        n1 = m.n + 1
+        K.rechart_all(y, m.n, ref_u, ref_e, ws[0], ws[1], ws[2], ws[3], ws[4], ws[9])  # as the kernel
+        m.refresh_mobility(y, force=True)
+        dm = ws[-1]
+        x = y[3:].reshape(n1, 4)[:, :3]
+        h, gammas, anchor, zeta = m.mobility_arguments()[:4]
+        ms = dm + local_mobility(x, h, gammas[0], gammas[1], anchor, zeta)
+        free = moving_components(anchor, n1)
+        try:
+            chol = np.linalg.cholesky(ms[np.ix_(free, free)])
+        except np.linalg.LinAlgError:
+            raise SimulationError("the nonlocal mobility is not positive definite at "
+                                  "this state (beads closer than the filament radius?)") from None
+        xi = np.zeros(3 * n1)
+        xi[free] = math.sqrt(2.0 * self.kT / dt) * solve_triangular(chol, g[:3 * n1][free], lower=True,
+                                                                    trans="T")
+        ny = len(y)
+        w = self._work
+        b, yp, ym, f1, f2 = w[1].copy(), w[6], w[7], w[8], w[9]
+        zf, zm, zh = np.zeros((n1, 3)), np.zeros(n1), np.zeros(3)
+        thermal_increment(y, dt, self.kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, ym, f1, f2,
+                          zf, zm, zh, np.zeros((n1, 3)), np.zeros(n1), np.zeros(3), xi.reshape(n1, 3))
+        wv = g[4 * n1 + 3:4 * n1 + 3 + ny]
+        zf[:] = wv[3:].reshape(n1, 4)[:, :3]
+        zf.reshape(-1)[~free] = 0.0
+        zm[:] = wv[3:].reshape(n1, 4)[:, 3]
+        frozen = dm.copy()
+        dm[:] = correction(x + RFD_DELTA * zf, *m.mobility_arguments(), symmetric=True)
+        _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1)
+        dm[:] = frozen
+        _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1)
+        b += dt * self.kT / RFD_DELTA * (f1 - f2)
+        return b
 
     def _split_step(self, t0, dt, g, depth):
         """Two half steps whose noise increments add up to the failed step's (bridge)."""

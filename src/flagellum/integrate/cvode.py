@@ -30,6 +30,7 @@ from ..errors import SimulationError
 from .banded import band_factor, band_solve
 from ..rod import kernels as K
 from ..rod.model import JACOBIAN_BAND
+from ..rod.model import positions as m_positions
 
 KL, KU = JACOBIAN_BAND
 
@@ -140,6 +141,8 @@ class CvodeStepper:
 
     fixed_step = None
     rng_state = None
+    #: a frozen nonlocal mobility goes over to a rebuilt one continuously in time
+    smooth_refresh = True
 
     def __init__(self, model, t0: float, y0: np.ndarray, rtol: float = 1e-6,
                  atol: float = 1e-8, max_step: float = 0.0, max_num_steps: int = 100000):
@@ -179,6 +182,14 @@ class CvodeStepper:
         if t > self._t_max:  # a new step attempt (CVODE does not expose its counters here)
             self._t_max = t
             self.n_steps += 1
+        if self._ramp is not None:  # ΔM(t) between two builds: continuous in time
+            frm, delta, t0, tau = self._ramp
+            s = min(1.0, max(0.0, (t - t0) / tau))
+            if s != self._ramp_s:
+                dm = self.model.kernel_arrays[-1][-1]
+                np.multiply(delta, s, out=dm)
+                dm += frm
+                self._ramp_s = s
         self.model.rhs(t, y, out=yp)
 
     def _jac(self, t, y, yp, jj):
@@ -208,13 +219,34 @@ class CvodeStepper:
             raise SimulationError(f"singular preconditioner at t = {t:.6g} s")
 
     def _psolve(self, t, y, yp, rvec, zvec, gamma, delta, lr):
-        z = np.array(rvec, float)
-        band_solve(self._pab, self._kl, self._ku, self._ipiv, z, self._pivoted)
-        zvec[:] = z
+        zvec[:] = rvec
+        band_solve(self._pab, self._kl, self._ku, self._ipiv, zvec, self._pivoted)
+
+    def _check_mobility(self, t, y):
+        """Rebuild (or turn) the frozen ΔM if the beads of y have moved too far; with
+        :attr:`smooth_refresh` the kernel's ΔM then goes over linearly in time from its value
+        at t to the new one, over the time the last interval between builds took, so that
+        the right-hand side has no jump (a jump costs CVODE a run of shortened steps)."""
+        m = self.model
+        dm = m.kernel_arrays[-1][-1]
+        if self._ramp is not None:
+            frm, delta, t0, tau = self._ramp
+            dm[:] = frm + min(1.0, max(0.0, (t - t0) / tau)) * delta
+        current = dm.copy() if self.smooth_refresh else None
+        if not m.refresh_mobility(y):
+            return
+        if self.smooth_refresh and self._last_build is not None and t > self._last_build:
+            self._ramp = (current, dm - current, t, t - self._last_build)
+            self._ramp_s = -1.0
+        else:
+            self._ramp = None
+        self._last_build = t
 
     def reset(self, t0: float, y0: np.ndarray) -> None:
         self.t = float(t0)
         self.y = np.array(y0, float)
+        self._ramp, self._ramp_s, self._last_build = None, -1.0, float(t0)
+        self._sub = 0.0  # (a resumed run starts here too: nothing carried over)
         if self.model.jacobian_band == (KL, KU):
             linear = dict(jacfn=self._jac, linsolver="band", lband=self._kl, uband=self._ku)
         else:
@@ -227,8 +259,34 @@ class CvodeStepper:
         self._solver.init_step(self.t, self.y)
 
     def advance(self, t: float) -> np.ndarray:
+        m = self.model
+        frozen = m.iprm[K.I_HYDRO] != K.HYDRO_LOCAL and m.hydrodynamics.refresh > 0
         with self._output.catch() as said:  # SUNDIALS' own lines: folded into ours
-            res = self._solver.step(t)
+            if not frozen:
+                res = self._solver.step(t)
+            else:  # the frozen ΔM is checked (and rebuilt) at sub-targets that the fastest
+                # bead takes about half the refresh distance to reach (CVODE's steps are not
+                # stopped there: it interpolates)
+                tc, xc = self.t, m_positions(self.y)
+                if self._sub <= 0:  # first call: from the bead speeds now
+                    v = float(np.max(np.abs(m_positions(m.rhs(tc, self.y)))))
+                    self._sub = 0.5 * m.hydrodynamics.refresh / v if v > 0 else t - tc
+                while True:
+                    tn = min(t, tc + self._sub)
+                    if t - tn < 0.25 * self._sub:
+                        tn = t
+                    res = self._solver.step(tn)
+                    if not res.success or not np.all(np.isfinite(res.y)):
+                        break
+                    xn = m_positions(res.y)
+                    moved = float(np.max(np.abs(xn - xc)))
+                    if moved > 0:
+                        grow = min(2.0, max(0.25, 0.5 * m.hydrodynamics.refresh / moved))
+                        self._sub = grow * (tn - tc)
+                    self._check_mobility(tn, res.y)
+                    tc, xc = tn, xn
+                    if tn >= t:
+                        break
         if not res.success or not np.all(np.isfinite(res.y)):
             detail = said.summary()
             raise SimulationError(f"CVODE failed at t = {res.t:.6g} s: {res.message}"

@@ -28,9 +28,10 @@ def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality:
     sweep of Fig. 3/4, the critical points of Fig. 5/7) when several run in one process.
     Each figure module runs as compute → analyse → plot → write (its ``run``).
     ``hydrodynamics`` (:class:`~flagellum.hydro.options.Hydrodynamics`, default local RFT)
-    is the filament's mobility in the simulations and stability analyses of Fig. 3–5 and
-    Fig. 7 (the thermal runs of Fig. 4 and the theory of Fig. 6 and Fig. 8 keep RFT); it
-    replaces that of a given ``cache``.
+    is the filament's mobility in the simulations and stability analyses of Fig. 3–5,
+    Fig. 7 and Fig. 8 (the thermal runs of Fig. 4 and the effective-rod theory of Fig. 6
+    and Fig. 8 keep RFT; Fig. 6 adds the rigid helix' nonlocal coefficients); it replaces
+    that of a given ``cache``.
     """
     from ..errors import ParameterError
 

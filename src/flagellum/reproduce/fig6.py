@@ -34,7 +34,8 @@ QUANTITY_UNITS = {
     "gamma_rot_lighthill": "pN·s", "a_perp": "pN·s/µm²", "a_par": "pN·s/µm²", "b_par": "pN·s",
     "c_par": "pN·s/µm", "theory_M_c1": "pN·µm", "theory_F_c1": "pN", "m_density": "pN",
     "f_par_density": "pN/µm", "spring_constant_A_over_R2L": "pN/µm", "persistence_length": "µm",
-    "twist_per_length_at_M_c1": "rad/µm", "radius_at_M_c1_mean_twist": "µm"}
+    "twist_per_length_at_M_c1": "rad/µm", "radius_at_M_c1_mean_twist": "µm",
+    "sbt_a_par": "pN·s/µm²", "sbt_b_par": "pN·s", "sbt_c_par": "pN·s/µm", "sbt_thrust_per_torque": "1/µm"}
 #: quantities ``reproduce`` returns
 HEADLINE = ("L0", "pitch_angle_deg", "A_eff", "torque_scale_A_eff_over_L0",
             "force_scale_A_eff_over_L0sq", "a_perp", "a_par", "b_par", "c_par", "theory_M_c1",
@@ -158,9 +159,37 @@ def plot(q: dict, quality: str, out_dir: Path):
     return save_figure(fig, out_dir, "fig6", f"Fig. 6: the helical rod of Sec. 4.1 (quality {quality})")
 
 
+def nonlocal_coefficients(params=None) -> dict:
+    """The rigid helix' axial coefficients per axial length L0 from the nonlocal mobility
+    (:func:`flagellum.hydro.sbt.resistance_matrix` on the continuum helix' Gauss nodes, torques
+    about the axis), beside the local ones of the rod theory: ``sbt_a_par`` = A∥/L0,
+    ``sbt_b_par`` = B∥/L0, ``sbt_c_par`` = C∥/L0 and the thrust per torque −C∥/B∥ of the
+    helix held on its axis."""
+    from ..helix import Helix
+    from ..hydro import sbt
+    from ..hydro.rft import helix_nodes
+    from ..params import Params
+
+    params = params or Params()
+    helix = Helix.from_filament(params.filament)
+    x, t, w = helix_nodes(helix)
+    fl = params.fluid
+    R = sbt.resistance_matrix(x, fl.filament_radius, fl.viscosity, params.gammas[2],
+                              tangents=t, weights=w)
+    L0 = helix.axial_length
+    return {"sbt_a_par": float(R[2, 2] / L0), "sbt_b_par": float(R[5, 5] / L0),
+            "sbt_c_par": float(R[2, 5] / L0),
+            "sbt_thrust_per_torque": float(-R[2, 5] / R[5, 5])}
+
+
 def compute(quality: str, cache=None) -> Fig6Data:
-    """The quantities of the paper's filament (nothing shared: ``cache`` is unused)."""
-    return Fig6Data(quantities())
+    """The quantities of the paper's filament (of ``cache`` only its ``hydrodynamics``: with a
+    nonlocal one, :func:`nonlocal_coefficients` are added; the rod theory stays local)."""
+    q = quantities()
+    hyd = getattr(cache, "hydrodynamics", None)
+    if hyd is not None and not hyd.is_local:
+        q.update(nonlocal_coefficients())
+    return Fig6Data(q)
 
 
 def write(out_dir: Path, data: Fig6Data, quality: str) -> list[Path]:
@@ -198,6 +227,11 @@ def compare(data: Fig6Data, quality: str) -> Comparison:
     cmp.note(f"Anchored threshold of the rod theory (constant friction): m̂ = {q['m_hat']:.3f}, "
              f"f̂∥ = {q['f_par_hat']:.2f}, χ̂ = {q['chi_hat']:.1f}, i.e. M = {q['theory_M_c1']:.3f} pN·µm, "
              f"F = {q['theory_F_c1']:.3f} pN (see fig7).")
+    if "sbt_thrust_per_torque" in q:
+        cmp.note(f"Nonlocal mobility (SBT), rigid helix held on its axis: A∥/L0 = {q['sbt_a_par']:.4e}, "
+                 f"B∥/L0 = {q['sbt_b_par']:.4e}, C∥/L0 = {q['sbt_c_par']:.4e}, thrust per torque "
+                 f"{q['sbt_thrust_per_torque']:.4f} /µm (c∥/b∥ of the local rod: "
+                 f"{abs(q['c_par'] / q['b_par']):.4f} /µm). The rod theory of this figure is local.")
     return cmp
 
 

@@ -102,15 +102,21 @@ def _job(job: dict) -> dict:
     from ..analysis.stability import critical_torque, linear_stability
     from ..theory.manifold import HelicalRod
 
+    from ..hydro.options import Hydrodynamics
+
     params = variant_params(job["variant"])
+    hyd = Hydrodynamics.from_dict(job.get("hydrodynamics"))
     try:
         if job["kind"] == "lambda":
-            r = linear_stability(params, job["torque"])
+            r = linear_stability(params, job["torque"], hydrodynamics=hyd)
             return {**job, "lambda": r.lambda_, "frequency": r.frequency}
         if job["kind"] == "theory":
             return {**job, "lambda": HelicalRod.from_params(params).reorientation_rate(job["m_hat"])}
         g = job["guess"]
-        ct = critical_torque(params, bracket=(0.75 * g, 1.35 * g), xtol=1e-3)
+        # the guess is the local theory's; the nonlocal mobility raises M_c1 by ≈ 1.5
+        # (docs/hydrodynamics.md), so its bracket reaches further up
+        lo, hi = (0.75, 1.35) if hyd.is_local else (0.9, 2.2)
+        ct = critical_torque(params, bracket=(lo * g, hi * g), xtol=1e-3, hydrodynamics=hyd)
         return {**job, "M_c1": ct.critical_torque, "F_c1": ct.critical_force}
     except Exception as exc:  # noqa: BLE001 - report and go on
         return {**job, "error": str(exc)}
@@ -169,8 +175,12 @@ class Fig8Data:
 
 def compute(quality: str, cache=None) -> Fig8Data:
     """λ(m̂) and M_c1 of every variant and the turn scan by linear stability, in one process
-    pool (nothing shared: ``cache`` is unused)."""
+    pool (nothing else shared: of ``cache`` only its ``hydrodynamics``, the mobility of the
+    stability analyses; the effective-rod theory stays local)."""
     from ..theory.manifold import HelicalRod
+
+    hyd = getattr(cache, "hydrodynamics", None)
+    hyd = None if hyd is None or hyd.is_local else hyd.to_dict()
 
     variants = VARIANTS[quality]
     sc = {v[0]: scales(variant_params(v)) for v in variants}
@@ -189,6 +199,8 @@ def compute(quality: str, cache=None) -> Fig8Data:
                 jobs.append({"kind": "lambda", "variant": v, "m_hat": mh, "torque": torque,
                              "turn_scan": True, "cost": 0.3})
                 jobs.append({"kind": "theory", "variant": v, "m_hat": mh, "turn_scan": True, "cost": 0.0})
+    if hyd is not None:
+        jobs = [{**j, "hydrodynamics": hyd} for j in jobs]
     res = pmap(_job, jobs)
     # effective-rod prediction on panel (b): the normal helix' rod (depends on geometry only
     # through f̂∥/m̂, 8.7 normal vs 9.9 monotrichous)

@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import SimulationError
 from ..helix import DiscreteHelix, discrete_helix
 from ..hydro import body as body_model
-from ..hydro.dynamics import correction
+from ..hydro.dynamics import correction, rigid_fit, rotate_correction
 from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
 from ..params import EndLoad, Params
@@ -99,6 +99,8 @@ class RodModel:
         self._solved_drive = self.motor.drive != "torque"  #: the kernel solves for the torque
         self._ws = K.workspace(self.n, 3 * n1 if self._nonlocal else 0)
         self._frozen = None  #: bead positions the nonlocal correction ΔM was built at
+        #: build ΔM from the symmetric part of the nonlocal mobility (a thermal stepper sets it)
+        self.symmetric_mobility = False
         self._zf = np.zeros((n1, 3))
         self._zm = np.zeros(n1)
         self._zh = np.zeros(3)
@@ -316,15 +318,25 @@ class RodModel:
         if not self._nonlocal:
             return False
         x = positions(y)
-        if not force and self._frozen is not None and (
-                np.max(np.abs(x - self._frozen)) <= self.hydrodynamics.refresh):
-            return False
-        fluid = self.params.fluid
-        self._ws[-1][:] = correction(x, self.h, self.gammas, _ANCHOR[self.boundary.anchor],
-                                     self.sphere_drag, fluid.filament_radius, fluid.viscosity,
-                                     self.boundary.sphere_radius or 0.0)
+        if not force and self._frozen is not None:
+            if np.max(np.abs(x - self._frozen)) <= self.hydrodynamics.refresh:
+                return False
+            # a rigid rotation of the frozen beads (about bead 0): turn ΔM instead of rebuilding
+            rot, resid = rigid_fit(self._frozen, x, _ANCHOR[self.boundary.anchor])
+            if resid <= self.hydrodynamics.refresh:
+                self._ws[-1][:] = rotate_correction(self._ws[-1], rot)
+                self._frozen = x[0] + (self._frozen - self._frozen[0]) @ rot.T
+                return True
+        self._ws[-1][:] = correction(x, *self.mobility_arguments(), symmetric=self.symmetric_mobility)
         self._frozen = x.copy()
         return True
+
+    def mobility_arguments(self) -> tuple:
+        """The arguments of :func:`flagellum.hydro.dynamics.correction` after the positions:
+        (h, gammas, anchor code, sphere drag, filament radius, viscosity, sphere radius)."""
+        fluid = self.params.fluid
+        return (self.h, self.gammas, _ANCHOR[self.boundary.anchor], self.sphere_drag,
+                fluid.filament_radius, fluid.viscosity, self.boundary.sphere_radius or 0.0)
 
     def rhs(self, t: float, y: np.ndarray, noise_f=None, noise_m=None, out=None) -> np.ndarray:
         """dy/dt at time t (scipy's ``fun(t, y)``); optional thermal forces/torques."""

@@ -1,0 +1,152 @@
+"""Thermal noise with the nonlocal mobility (integrate.brownian, docs/hydrodynamics.md):
+the noise covariance is 2kT M_s Δt, equilibrium statistics do not depend on the mobility,
+and a stiff rod diffuses with D = kT R⁻¹ of its nonlocal resistance (Einstein)."""
+
+import numpy as np
+import pytest
+
+from flagellum import Filament, Fluid, Params
+from flagellum.hydro import rft, sbt
+from flagellum.hydro.dynamics import Hydrodynamics, effective_mobility
+from flagellum.hydro import local as L
+from flagellum.integrate.brownian import ImplicitStepper
+from flagellum.motor import Motor
+from flagellum.rod.model import RodModel, positions
+from flagellum.simulator import Simulator, SolverOptions
+
+KT = 4.1e-3
+SBT = Hydrodynamics("sbt")
+
+
+def _run(params, t_end, dt, hyd, seed=3, every=4, scheme="theta"):
+    sim = Simulator(params, Motor(0.0), thermal=True, seed=seed, hydrodynamics=hyd,
+                    solver=SolverOptions(method="implicit", dt=dt, scheme=scheme, theta=0.5))
+    return sim.run(t_end, save_every=every * dt, progress=False)
+
+
+def test_thermal_sbt_run_is_reproducible_and_uses_the_symmetric_mobility():
+    p = Params(Filament(length=2.0), Fluid(kT=KT))
+    a = _run(p, 5e-4, 5e-5, SBT, seed=1, every=1)
+    b = _run(p, 5e-4, 5e-5, SBT, seed=1, every=1)
+    c = _run(p, 5e-4, 5e-5, Hydrodynamics(), seed=1, every=1)
+    assert np.array_equal(a.positions, b.positions)
+    assert not np.allclose(a.positions, c.positions)  # the same stream, another mobility
+    m = RodModel(p, hydrodynamics=SBT)
+    ImplicitStepper(m, 0.0, m.initial_state(), 5e-5, kT=KT)
+    assert m.symmetric_mobility
+    assert np.array_equal(m._ws[-1], m._ws[-1].T)
+
+
+def test_nonlocal_noise_has_the_covariance_of_the_symmetric_mobility():
+    """Bead part of the thermal increment: ⟨b bᵀ⟩ = 2kT Δt M_s on the free components
+    (fluctuation–dissipation), M_s = (M_eff + M_effᵀ)/2 of hydro.dynamics at the state. At
+    Δt = 1e-7 s the random-finite-difference drift adds a relative O(kT Δt |∂M|²/M) ≈ 1e-4.
+    The sample covariance of 4000 draws has a relative (Frobenius) error ≈ √(1.5/4000)·15/√(15)
+    ≈ 6 % here (entries of similar size, 15 × 15): the bound is 10 %."""
+    p = Params(Filament(length=1.0), Fluid(kT=KT))
+    m = RodModel(p, hydrodynamics=SBT)
+    y = m.initial_state()
+    dt = 1e-7
+    st = ImplicitStepper(m, 0.0, y, dt, kT=KT, seed=4)
+    rng = np.random.default_rng(9)
+    bs = np.array([positions(st._nonlocal_increment(y.copy(), rng.standard_normal(st._n_normals), dt)).ravel()
+                   for _ in range(4000)])
+    x = positions(y)
+    me = effective_mobility(x, p.fluid.filament_radius, p.fluid.viscosity, L.FIXED)
+    ms = 0.5 * (me + me.T)[3:, 3:]
+    cov = bs[:, 3:].T @ bs[:, 3:] / len(bs) / (2 * KT * dt)
+    rel = np.linalg.norm(cov - ms) / np.linalg.norm(ms)
+    assert rel < 0.1
+    assert np.abs(bs[:, :3]).max() == 0.0  # the anchored bead does not move
+    # against the local drag: the nonlocal covariance is measurably different
+    from flagellum.hydro.dynamics import local_mobility
+    ml = local_mobility(x, p.filament.segment_length, *p.gammas[:2], L.FIXED, 0.0)[3:, 3:]
+    assert np.linalg.norm(cov - ml) / np.linalg.norm(ml) > 3 * rel
+
+
+@pytest.mark.slow
+def test_equipartition_with_the_nonlocal_mobility():
+    """No motor: ⟨E⟩ = ½kT per quadratic mode, 4N modes (test_thermal.py), whatever the
+    mobility: a check that drift, noise and the Itô term of M_s are consistent."""
+    p = Params(Filament(length=2.0), Fluid(kT=KT))
+    n = p.filament.n_segments
+    tr = _run(p, 0.04, 1e-5, SBT)
+    e = tr.energy[len(tr.energy) // 5:]
+    blocks = np.array([b.mean() for b in np.array_split(e, 10)])
+    err = blocks.std(ddof=1) / np.sqrt(10)
+    assert e.mean() / (2 * n * KT) == pytest.approx(1.0, abs=max(0.05, 3 * err / (2 * n * KT)))
+
+
+@pytest.mark.slow
+def test_tangent_correlation_with_the_nonlocal_mobility():
+    """Straight rod: ⟨t_i·t_{i+k}⟩ = exp(−k h kT/A) (worm-like chain), as with RFT."""
+    A = 3.5
+    p = Params(Filament(kappa0=0.0, tau0=0.0, bend_rigidity=A, twist_rigidity=A, length=2.0),
+               Fluid(kT=KT))
+    tr = _run(p, 0.03, 1e-5, SBT)
+    pos = tr.positions[len(tr.t) // 5:]
+    t = np.diff(pos, axis=1)
+    t /= np.linalg.norm(t, axis=2)[..., None]
+    for k in (1, 3):
+        c = np.einsum("tij,tij->ti", t[:, :-k], t[:, k:]).mean()
+        assert (1 - c) == pytest.approx(1 - np.exp(-k * 0.2 * KT / A), rel=0.1)
+
+
+def _tilt_diffusion(hyd, seed=1, t_end=0.25, dt=5e-5, lag=20):
+    """⟨|Δu|²⟩/(4τ) of the end-to-end direction u of a stiff straight rod pinned at bead 0
+    (L = 4 µm, A = C = 3500 pN·µm², 1000× the paper's: the tip's bending fluctuation
+    L kT/3A ≈ 1.6e-6 rad² per direction adds ≈ 2 % to the lag-τ signal 4Dτ = 3e-4 rad²),
+    from all (overlapping) windows of τ = lag·Δt = 1 ms."""
+    p = Params(Filament(kappa0=0.0, tau0=0.0, bend_rigidity=3500.0, twist_rigidity=3500.0,
+                        length=4.0), Fluid(kT=KT))
+    sim = Simulator(p, Motor(0.0), thermal=True, seed=seed, hydrodynamics=hyd,
+                    solver=SolverOptions(method="implicit", dt=dt))
+    tr = sim.run(t_end, save_every=dt, progress=False)
+    e = tr.positions[:, -1] - tr.positions[:, 0]
+    u = e / np.linalg.norm(e, axis=1)[:, None]
+    du = u[lag:] - u[:-lag]
+    return np.mean(np.sum(du ** 2, axis=1)) / (4 * lag * dt), p, tr.positions[0]
+
+
+def _tilt_resistance(r, x):
+    """Rotational resistance of a straight rod about an axis ⟂ to it through bead 0."""
+    axis = (x[-1] - x[0]) / np.linalg.norm(x[-1] - x[0])
+    perp = np.cross(axis, [1.0, 0.0, 0.0])
+    perp /= np.linalg.norm(perp)
+    return perp @ r[3:, 3:] @ perp
+
+
+@pytest.mark.slow
+def test_stiff_rod_tilt_diffusion_is_kT_over_its_nonlocal_resistance():
+    """Einstein relation with HI: a rigid rod pinned at one end tilts with D = kT/B⊥, B⊥ the
+    rotational resistance about the pin: from hydro.sbt.resistance_matrix with the nonlocal
+    mobility, from hydro.rft.resistance_matrix (the paper's γ⊥) with the local one (the
+    hook's ½γ⊥h³ adds 3e-4). 5000 steps, windows of 20: sampling error ≈ 5 % each; the same
+    random stream in both runs, so their ratio is more precise. RFT's B⊥ is 21 % larger.
+    Measured: D·B⊥/kT = 0.949 (SBT), 0.959 (RFT); the ratio 0.989 of the predicted one."""
+    d_sbt, p, x = _tilt_diffusion(SBT)
+    d_rft = _tilt_diffusion(Hydrodynamics())[0]
+    t, w = sbt.centreline_nodes(x)
+    b_sbt = _tilt_resistance(sbt.resistance_matrix(x, p.fluid.filament_radius, p.fluid.viscosity,
+                                                   origin=x[0]), x)
+    b_rft = _tilt_resistance(rft.resistance_matrix(x, t, w, *p.gammas[:2], origin=x[0]), x)
+    assert d_sbt / (KT / b_sbt) == pytest.approx(1.0, abs=0.12)
+    assert d_rft / (KT / b_rft) == pytest.approx(1.0, abs=0.12)
+    assert (d_sbt / d_rft) / (b_rft / b_sbt) == pytest.approx(1.0, abs=0.08)
+    assert b_rft / b_sbt > 1.15
+
+
+@pytest.mark.slow
+@pytest.mark.ci
+def test_fixed_step_bdf2_with_the_nonlocal_mobility_follows_cvode():
+    """Deterministic BDF2 (Δt = 2e-5 s) with SBT against CVODE with SBT (rtol 1e-8): the
+    anchored filament at M = 1 from the pinned helix, 0.01 s. The Newton iteration of BDF2
+    uses the banded near-field Jacobian (the same operator CVODE preconditions with)."""
+    out = {}
+    for name, solver in (("bdf2", SolverOptions(method="implicit", dt=2e-5)),
+                         ("cvode", SolverOptions(rtol=1e-8, atol=1e-10))):
+        sim = Simulator(Params(), Motor(1.0), hydrodynamics=SBT, solver=solver)
+        tr = sim.run(0.01, save_every=1e-3, progress=False)
+        out[name] = np.asarray(tr.positions), np.asarray(tr.thrust)
+    assert np.abs(out["bdf2"][0] - out["cvode"][0]).max() < 2e-3
+    assert np.abs(out["bdf2"][1] - out["cvode"][1]).max() < 0.01 * np.abs(out["cvode"][1]).max()

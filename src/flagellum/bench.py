@@ -229,11 +229,15 @@ def plot_work_precision(data: dict, path) -> None:
     from ._plot import pyplot
 
     plt = pyplot()
-    fig, axes = plt.subplots(1, len(data), figsize=(5.2 * len(data), 4.2), squeeze=False)
-    for ax, (name, d) in zip(axes[0], data.items()):
+    cols = min(3, len(data))
+    rows_ = -(-len(data) // cols)
+    fig, axes = plt.subplots(rows_, cols, figsize=(5.2 * cols, 4.2 * rows_), squeeze=False)
+    for ax in axes.flat[len(data):]:
+        ax.set_visible(False)
+    for ax, (name, d) in zip(axes.flat, data.items()):
         labels = {"cvode": "CVODE (rtol)", "bdf": "Numba BDF (rtol)", "bdf2": "BDF2 (Δt)"}
         for kind, (_, key, marker) in METHODS.items():
-            rows = [r for r in d["runs"] if r["method"] == kind]
+            rows = [r for r in d["runs"] if r["method"] == kind and "failed" not in r]
             if not rows:
                 continue
             x = [r["wall_per_simulated_second"] for r in rows]

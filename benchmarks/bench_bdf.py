@@ -6,7 +6,7 @@ CVODE and the Numba BDF over rtol, interleaved setting by setting (so that a cha
 machine's load shifts both alike). Each run: wall seconds per simulated second, steps, the
 error of the time-averaged thrust, ω and χ (last half) against the reference (a run that
 fails is recorded with its message). Writes
-``benchmarks/bench_bdf.json`` and the work–precision diagram ``docs/img/work_precision.png``.
+``benchmarks/bench_bdf.json`` and the work–precision diagram ``docs/img/work_precision_bdf.png``.
 
 Run: OPENBLAS_NUM_THREADS=1 python benchmarks/bench_bdf.py [--quick] [regime ...]
 """
@@ -58,7 +58,7 @@ def main() -> None:
     (HERE / ("bench_bdf_quick.json" if QUICK else "bench_bdf.json")).write_text(
         json.dumps(out, indent=1))
     if not QUICK:
-        B.plot_work_precision(out["regimes"], HERE.parent / "docs" / "img" / "work_precision.png")
+        B.plot_work_precision(out["regimes"], HERE.parent / "docs" / "img" / "work_precision_bdf.png")
 
 
 if __name__ == "__main__":

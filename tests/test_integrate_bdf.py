@@ -201,18 +201,7 @@ def test_reset_at_the_same_point_equals_a_fresh_stepper():
 
 
 def test_killed_and_resumed_run_is_bit_identical(tmp_path):
-    from test_bad_input import RUN, _killed_after_checkpoints
+    from test_bad_input import killed_and_resumed_matches_the_whole_run
 
-    from flagellum.io import RECORD_FIELDS, read_trajectory
-
-    def sim():
-        return Simulator(SHORT, Motor(1.0), solver=SolverOptions(method="bdf"))
-
-    ref, out = tmp_path / "ref.h5", tmp_path / "run.h5"
-    sim().run(output=ref, **RUN)
-    _killed_after_checkpoints(out, 2, sim)
-    resumed, _ = Simulator.resume(out, progress=False)
-    a, b = read_trajectory(ref), read_trajectory(out)
-    for name in [*RECORD_FIELDS, "final_state"]:
-        assert np.array_equal(a[name], b[name]), name
-    assert a["attrs"]["steps"] == b["attrs"]["steps"] == resumed.steps
+    killed_and_resumed_matches_the_whole_run(
+        tmp_path, lambda: Simulator(SHORT, Motor(1.0), solver=SolverOptions(method="bdf")))

@@ -313,10 +313,7 @@ def test_a_damaged_checkpoint_is_refused_not_resumed(damage, tmp_path):
 def test_thermal_kill_and_resume_with_step_splits_is_bit_identical(tmp_path, monkeypatch):
     """A resumed thermal run draws the noise of its split steps (Brownian bridge) as the
     uninterrupted run did, and counts all steps."""
-    import numpy as np
-
     from flagellum.integrate.brownian import ImplicitStepper
-    from flagellum.io import RECORD_FIELDS, read_trajectory
     from flagellum.simulator import Simulator
 
     splits = []
@@ -333,10 +330,20 @@ def test_thermal_kill_and_resume_with_step_splits_is_bit_identical(tmp_path, mon
     def sim():
         return Simulator(Params.from_flat({"length": 2.0, "kT": 4.1e-3}), thermal=True, seed=3)
 
-    ref = tmp_path / "ref.h5"
-    sim().run(output=ref, **RUN)
+    killed_and_resumed_matches_the_whole_run(tmp_path, sim)
     assert splits
-    out = tmp_path / "run.h5"
+
+
+def killed_and_resumed_matches_the_whole_run(tmp_path, sim):
+    """The run of ``sim()`` SIGKILLed after its second checkpoint and resumed gives the
+    records, final state and step count of the run that never stopped."""
+    import numpy as np
+
+    from flagellum.io import RECORD_FIELDS, read_trajectory
+    from flagellum.simulator import Simulator
+
+    ref, out = tmp_path / "ref.h5", tmp_path / "run.h5"
+    sim().run(output=ref, **RUN)
     _killed_after_checkpoints(out, 2, sim)
     resumed, _ = Simulator.resume(out, progress=False)
     a, b = read_trajectory(ref), read_trajectory(out)

@@ -32,7 +32,7 @@ def test_work_precision_rows_and_plot(monkeypatch, tmp_path):
     monkeypatch.setattr(bench, "warm_up", lambda: None)
     data = bench.work_precision(quick=True, names=("from_rest_M1",))
     runs = data["from_rest_M1"]["runs"]
-    assert {r["method"] for r in runs} == {"cvode", "bdf2"}
+    assert {r["method"] for r in runs} == {"cvode", "bdf", "bdf2"}
     assert all(r["error"] >= 0 and r["steps"] > 0 for r in runs)
     bench.plot_work_precision(data, tmp_path / "wp.png")
     assert (tmp_path / "wp.png").stat().st_size > 1000
@@ -50,3 +50,13 @@ def test_bench_quick_json_has_regimes(monkeypatch, capsys):
         if not bench.REGIMES[name][3]:
             assert row["reference_check"] >= 0 and row["error"] >= 0
     assert {"from_rest", "scaling", "brownian", "wall_per_simulated_second"} <= set(out)
+
+
+def test_regimes_run_with_the_chosen_stepper(monkeypatch):
+    _short(monkeypatch)
+    monkeypatch.setattr(bench, "warm_up", lambda: None)
+    rows = bench.regimes(quick=True, names=("from_rest_M1", "thermal_M1"),
+                         solver=bench.SolverOptions(method="bdf", rtol=1e-4))
+    assert rows["from_rest_M1"]["method"] == "bdf" and rows["from_rest_M1"]["rtol"] == 1e-4
+    assert rows["from_rest_M1"]["error"] < 1e-2  # against the CVODE reference
+    assert rows["thermal_M1"]["method"] == "implicit"

@@ -402,7 +402,7 @@ def test_both_steppers_satisfy_the_stepper_protocol():
     y0 = m.initial_state()
     cv = make_stepper("cvode", m, 0.0, y0, SolverOptions())
     im = make_stepper("implicit", m, 0.0, y0, SolverOptions(method="implicit", dt=1e-5), kT=0.0041, seed=4)
-    assert set(STEPPERS) == {"cvode", "implicit"}
+    assert set(STEPPERS) == {"cvode", "implicit", "bdf"}
     assert type(cv) is STEPPERS["cvode"] and type(im) is STEPPERS["implicit"]
     assert isinstance(cv, Stepper) and isinstance(im, Stepper)
     assert not isinstance(object(), Stepper)

@@ -14,8 +14,10 @@
   with the wall seconds per simulated second, the solver's steps, steps per motor
   revolution, and the error of the time-averaged thrust, ω and χ (last half of the window)
   against a tight-tolerance run whose own convergence is shown by a second, looser one.
+  Any deterministic stepper can run them (``solver``; ``flagellum bench --method bdf``).
 * ``work_precision`` (:func:`work_precision`): error of those averages against wall time for
-  CVODE over rtol and the fixed-step BDF2 over Δt (buckled M = 1.6 and M = 1 from rest);
+  CVODE and the Numba BDF (:mod:`flagellum.integrate.bdf`) over rtol and the fixed-step BDF2
+  over Δt (buckled M = 1.6 and M = 1 from rest by default, any of :data:`REGIMES`);
   :func:`plot_work_precision` draws the diagram (``flagellum bench --plot``).
 """
 
@@ -50,9 +52,11 @@ def steady_state(torque: float = 1.0, params: Params | None = None, warmup: floa
 
 
 def bench(window: float = 0.2, quick: bool = False, with_regimes: bool = True,
-          with_work_precision: bool = False) -> dict:
-    """Run all benchmarks; returns the JSON-ready dict (``regimes``: :func:`regimes`;
-    ``work_precision``: :func:`work_precision`, only when asked for)."""
+          with_work_precision: bool = False, solver: SolverOptions | None = None,
+          work_precision_names=None) -> dict:
+    """Run all benchmarks; returns the JSON-ready dict (``regimes``: :func:`regimes`, the
+    deterministic ones with ``solver`` (default: ``SolverOptions()``); ``work_precision``:
+    :func:`work_precision` of ``work_precision_names``, only when asked for)."""
     out: dict = {"segments": 50, "torque": 1.0, "window": window, "load_average": load_average()}
     sim = steady_state(1.0)
     t0, start, frame0 = sim.t, sim.state(), sim.model.omega_frame
@@ -91,9 +95,10 @@ def bench(window: float = 0.2, quick: bool = False, with_regimes: bool = True,
     out["brownian"] = {"segments": 50, "dt": opts.dt, "wall_per_simulated_second": wall / w,
                        "steps": steps}
     if with_regimes:
-        out["regimes"] = regimes(quick)
+        out["regimes"] = regimes(quick, solver=solver)
     if with_work_precision:
-        out["work_precision"] = work_precision(quick)
+        out["work_precision"] = work_precision(quick, **(
+            {"names": tuple(work_precision_names)} if work_precision_names else {}))
     out["load_average_end"] = load_average()
     return out
 
@@ -111,16 +116,22 @@ REGIMES = {
 }
 REFERENCE_RTOL = 1e-10  #: the reference run of the error columns
 CHECK_RTOL = 1e-9  #: its convergence check: the reference's error is ≲ this run's difference
-RTOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)  #: work–precision: CVODE
+RTOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8)  #: work–precision: CVODE and BDF
 DTS = (1e-4, 5e-5, 2e-5)  #: work–precision: fixed-step BDF2 [s]
 RECORDS = 200  #: records per window (the default of ``Simulator.run``)
 SAVE_GRID = 1e-4  #: record interval: a multiple of every Δt of DTS (whole fixed steps) [s]
 
 
+#: work–precision methods: name → (SolverOptions method, the setting swept, line style)
+METHODS = {"cvode": ("cvode", "rtol", "o-"), "bdf": ("bdf", "rtol", "^-"),
+           "bdf2": ("implicit", "dt", "s--")}
+
+
 def _solver(kind: str, value: float | None = None) -> SolverOptions:
-    if kind == "cvode":
-        return SolverOptions() if value is None else SolverOptions(rtol=value, atol=None)
-    return SolverOptions(method="implicit", dt=value or SolverOptions().dt)
+    method, setting, _ = METHODS[kind]
+    if value is None:
+        return SolverOptions(method=method)
+    return SolverOptions(method=method, **{setting: value})
 
 
 def run_regime(name: str, solver: SolverOptions | None = None, window: float | None = None) -> dict:
@@ -129,7 +140,7 @@ def run_regime(name: str, solver: SolverOptions | None = None, window: float | N
     torque, w, boundary, thermal = REGIMES[name]
     w = w if window is None else window
     if solver is None:
-        solver = _solver("implicit" if thermal else "cvode")
+        solver = SolverOptions(method="implicit") if thermal else SolverOptions()
     sim = Simulator(Params(), Motor(torque), boundary, thermal=thermal, seed=1 if thermal else None,
                     solver=solver)
     # the same records for every solver: the averages compared sample the same instants
@@ -157,13 +168,15 @@ def warm_up() -> None:
     """Compile the kernels of every solver and boundary (untimed), so that no timed run pays
     Numba's compile pause."""
     for name, (torque, _, boundary, thermal) in REGIMES.items():
-        for solver in ((_solver("implicit"),) if thermal else (_solver("cvode"), _solver("bdf2"))):
+        for solver in ((_solver("bdf2"),) if thermal else
+                       (_solver("cvode"), _solver("bdf"), _solver("bdf2"))):
             Simulator(Params(), Motor(torque), boundary, thermal=thermal, seed=1,
                       solver=solver).run(2e-4, save_every=1e-4, progress=False)
 
 
-def regimes(quick: bool = False, names=None) -> dict:
-    """:data:`REGIMES` at the default solver, each against a CVODE rtol = 1e-10 reference over
+def regimes(quick: bool = False, names=None, solver: SolverOptions | None = None) -> dict:
+    """:data:`REGIMES` at ``solver`` (default: the default solver; thermal: always the
+    default fixed-step scheme), each against a CVODE rtol = 1e-10 reference over
     the same window (thermal: no reference, the noise differs per step size). ``reference_check``
     is the error of an rtol = 1e-9 run against the reference, an upper bound on the reference's
     own error. ``quick``: windows a quarter as long, reference rtol 1e-8 checked by 1e-7."""
@@ -173,7 +186,10 @@ def regimes(quick: bool = False, names=None) -> dict:
     for name in names or REGIMES:
         torque, w, _, thermal = REGIMES[name]
         w = 0.25 * w if quick else w
-        row = {"torque": torque, **run_regime(name, window=w)}
+        row = {"torque": torque, **run_regime(name, None if thermal else solver, window=w)}
+        row["method"] = "implicit" if thermal else (solver or SolverOptions()).method
+        if not thermal:
+            row["rtol"] = (solver or SolverOptions()).rtol
         if not thermal:
             ref = run_regime(name, _solver("cvode", ref_rtol), w)
             chk = run_regime(name, _solver("cvode", check_rtol), w)
@@ -188,37 +204,45 @@ def regimes(quick: bool = False, names=None) -> dict:
 
 
 def work_precision(quick: bool = False, names=("buckled_M1.6", "from_rest_M1")) -> dict:
-    """Error of the time averages against wall time: CVODE over :data:`RTOLS`, BDF2 over
-    :data:`DTS`, against a CVODE rtol = 1e-10 run (quick: half windows, fewer points, 1e-9)."""
+    """Error of the time averages against wall time: CVODE and the Numba BDF over
+    :data:`RTOLS`, BDF2 over :data:`DTS`, against a CVODE rtol = 1e-10 run (quick: half
+    windows, fewer points, 1e-9). The runs of one regime are interleaved by setting (CVODE,
+    BDF, CVODE, …), so that a change of the machine's load shifts both lines alike."""
     warm_up()
     out = {}
     for name in names:
         w = REGIMES[name][1] * (0.5 if quick else 1.0)
         ref = run_regime(name, _solver("cvode", 1e-9 if quick else REFERENCE_RTOL), w)
         rows = []
-        points = [("cvode", r) for r in (RTOLS[::2] if quick else RTOLS)]
+        points = [(k, r) for r in (RTOLS[::2] if quick else RTOLS) for k in ("cvode", "bdf")]
         points += [("bdf2", d) for d in (DTS[:2] if quick else DTS)]
         for kind, value in points:
             r = run_regime(name, _solver(kind, value), w)
-            rows.append({"method": kind, "rtol" if kind == "cvode" else "dt": value,
-                         **r, **average_errors(r, ref)})
+            rows.append({"method": kind, METHODS[kind][1]: value, **r, **average_errors(r, ref)})
         out[name] = {"window": w, "reference": ref, "runs": rows}
     return out
 
 
 def plot_work_precision(data: dict, path) -> None:
     """The work–precision diagram of :func:`work_precision`: error of the time averages
-    against wall seconds per simulated second, one panel per run, CVODE and BDF2 lines."""
+    against wall seconds per simulated second, one panel per run, a line per method."""
     from ._plot import pyplot
 
     plt = pyplot()
-    fig, axes = plt.subplots(1, len(data), figsize=(5.2 * len(data), 4.2), squeeze=False)
-    for ax, (name, d) in zip(axes[0], data.items()):
-        for kind, key, marker in (("cvode", "rtol", "o-"), ("bdf2", "dt", "s--")):
-            rows = [r for r in d["runs"] if r["method"] == kind]
+    cols = min(3, len(data))
+    rows_ = -(-len(data) // cols)
+    fig, axes = plt.subplots(rows_, cols, figsize=(5.2 * cols, 4.2 * rows_), squeeze=False)
+    for ax in axes.flat[len(data):]:
+        ax.set_visible(False)
+    for ax, (name, d) in zip(axes.flat, data.items()):
+        labels = {"cvode": "CVODE (rtol)", "bdf": "Numba BDF (rtol)", "bdf2": "BDF2 (Δt)"}
+        for kind, (_, key, marker) in METHODS.items():
+            rows = [r for r in d["runs"] if r["method"] == kind and "failed" not in r]
+            if not rows:
+                continue
             x = [r["wall_per_simulated_second"] for r in rows]
             y = [max(r["error"], 1e-14) for r in rows]
-            ax.loglog(x, y, marker, label="CVODE (rtol)" if kind == "cvode" else "BDF2 (Δt)")
+            ax.loglog(x, y, marker, label=labels[kind])
             for r, xi, yi in zip(rows, x, y):
                 ax.annotate(f"{r[key]:.0e}", (xi, yi), fontsize=7, xytext=(3, 3),
                             textcoords="offset points")

@@ -234,10 +234,11 @@ def boundary_from_cli(kwargs: dict) -> Boundary:
 def solver_options(func):
     """``--method``, ``--rtol``, ``--dt``, ``--scheme``, ``--theta``, ``--frame``."""
     return _add(func, [
-        click.option("--method", type=click.Choice(["cvode", "implicit"]), default=None,
-                     help="integrator (default: cvode, implicit for thermal runs)"),
+        click.option("--method", type=click.Choice(["cvode", "implicit", "bdf"]), default=None,
+                     help="integrator (default: cvode, implicit for thermal runs; bdf: the "
+                          "Numba variable-order BDF)"),
         click.option("--rtol", type=float, default=1e-6, show_default=True,
-                     help="relative tolerance (cvode)"),
+                     help="relative tolerance (cvode, bdf)"),
         click.option("--dt", type=float, default=5e-5, show_default=True,
                      help="time step of the implicit scheme [s]"),
         click.option("--scheme", type=click.Choice(["bdf2", "theta"]), default=None,

@@ -17,17 +17,29 @@ from ._output import emit_json, emit_table, fmt
 @click.option("--plot", "plot", type=click.Path(dir_okay=False), default=None,
               help="also run the work–precision comparison (CVODE over rtol, BDF2 over Δt) "
                    "and draw its diagram to this file (PNG)")
+@click.option("--plot-regime", "plot_regimes", multiple=True,
+              help="regime of the work–precision diagram, a key of flagellum.bench.REGIMES "
+                   "(repeatable; default: buckled_M1.6 and from_rest_M1)")
+@click.option("--method", type=click.Choice(["cvode", "bdf"]), default="cvode", show_default=True,
+              help="integrator of the deterministic regimes")
+@click.option("--rtol", type=float, default=None,
+              help="relative tolerance of the deterministic regimes (default: the solver's)")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
-def bench(quick, window, with_regimes, plot, as_json):
+def bench(quick, window, with_regimes, plot, plot_regimes, method, rtol, as_json):
     """Speed benchmarks: wall seconds per simulated second, scaling with N, Brownian, and the
     same-work regimes (wall per simulated s, steps, steps per revolution, error of the
     time averages)."""
-    from ..bench import bench as run_bench, plot_work_precision
-    from ..params import check_range
+    from ..bench import REGIMES, bench as run_bench, plot_work_precision
+    from ..params import check_choice, check_range
+    from ..simulator import SolverOptions
+
+    for name in plot_regimes:
+        check_choice("plot-regime", name, tuple(REGIMES))
 
     # at least a few records of the shortest save interval (window/100) that a run resolves
     out = run_bench(check_range("window", window, 1e-3, 10.0, lo_open=False), quick=quick, with_regimes=with_regimes,
-                    with_work_precision=plot is not None)
+                    with_work_precision=plot is not None, work_precision_names=plot_regimes,
+                    solver=SolverOptions(method=method, **({} if rtol is None else {"rtol": rtol})))
     if plot is not None:
         plot_work_precision(out["work_precision"], plot)
     if as_json:
@@ -43,6 +55,6 @@ def bench(quick, window, with_regimes, plot, as_json):
                                            "steps_per_revolution", "error") if k in row))
     for name, d in out.get("work_precision", {}).items():
         for r in d["runs"]:
-            setting = f"rtol {fmt(r['rtol'])}" if r["method"] == "cvode" else f"dt {fmt(r['dt'])}"
+            setting = f"dt {fmt(r['dt'])}" if "dt" in r else f"rtol {fmt(r['rtol'])}"
             click.echo(f"  {name} {r['method']} {setting}: wall/sim-s "
                        f"{fmt(r['wall_per_simulated_second'])}, error {fmt(r['error'])}")

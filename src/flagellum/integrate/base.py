@@ -15,6 +15,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from ..errors import ParameterError
+from .bdf import BdfStepper
 from .brownian import ImplicitStepper
 from .cvode import CvodeStepper
 
@@ -73,7 +74,7 @@ class Stepper(Protocol):
 
 
 #: ``SolverOptions.method`` → stepper class (see :class:`Stepper` for the contract)
-STEPPERS: dict[str, type] = {"cvode": CvodeStepper, "implicit": ImplicitStepper}
+STEPPERS: dict[str, type] = {"cvode": CvodeStepper, "implicit": ImplicitStepper, "bdf": BdfStepper}
 
 
 def make_stepper(method: str, model, t: float, y: np.ndarray, options, *, kT: float = 0.0,

@@ -107,10 +107,14 @@ def main():
     p.add_argument("--time", type=float, default=1.0)
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--plot-only", action="store_true")
+    p.add_argument("--branch-only", action="store_true", help="recompute the linear stability only")
     a = p.parse_args()
     js = HERE / "thrust_speed.json"
     if a.plot_only:
         data = json.loads(js.read_text())
+    elif a.branch_only:
+        data = {**json.loads(js.read_text()), "branch": aligned_branch()}
+        js.write_text(json.dumps(data, indent=1))
     else:
         data = {"time": a.time, "branch": aligned_branch(), "simulations": simulations(a.time, a.workers)}
         js.write_text(json.dumps(data, indent=1))

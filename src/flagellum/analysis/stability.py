@@ -20,7 +20,10 @@ Method
   coordinates are dropped), the hook tangent u0 moves on its sphere |u0| = const (two
   tangent-plane coordinates; none with a clamped hook, whose u0 is fixed), and with a load
   sphere the common translation along z is quotiented out by measuring every bead's ż
-  relative to the sphere's, ż_i − ż_0 (the sphere speed v = ż_0 is an output).
+  relative to the sphere's, ż_i − ż_0 (the sphere speed v = ż_0 is an output); for a free
+  swimmer (body sphere on bead 0) all three translations, ṙ_i − ṙ_0 (:data:`DRIFT`): its
+  relative equilibrium is a fixed point in the frame moving with bead 0 and rotating about
+  the e_z axis through it.
 * **Relative equilibrium.** Newton on (ξ, Ω) with the bordered Jacobian
   [[J, −G], [Ĝᵀ, 0]]: the phase condition Ĝ·δξ = 0 fixes the rotational symmetry and Ω is
   the extra unknown. J is a dense central finite-difference Jacobian (≈ 4N unknowns). The
@@ -34,6 +37,10 @@ Method
 * **Critical torque.** M_c1 is the root of λ(M) (Brent's method on a sign-changing
   bracket), F_c1 the thrust there: the paper's F = −∂𝓕/∂r⁽⁰⁾·e_z, the elastic force on
   the first bead (with a load sphere, (6πηa + drag of bead 0)·v).
+* **Drives.** A speed clamp or a torque–speed law (``motor``) selects the constant-torque
+  state whose torque it needs (the kernel solves the same hook balance); the state is then
+  linearized with that drive, whose solved torque responds to the perturbation
+  (:func:`_on_drive`); :func:`critical_speed` is the critical rotation rate of a clamp.
 * **Mobility.** The local RFT of the paper, or (``hydrodynamics``) the nonlocal mobility of
   :mod:`flagellum.hydro.dynamics`, then evaluated unfrozen: rebuilt at the state of every
   evaluation, so that f, its fixed point and J are those of the nonlocal dynamics itself.

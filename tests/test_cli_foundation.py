@@ -163,6 +163,62 @@ def test_boundary_flag_implies_its_kind(command, flag, value, expect, first_boun
     assert {k: getattr(b, k) for k in expect} == expect
 
 
+# -- drive flags: one builder for every command --------------------------------------------
+
+#: the drive arguments with which each command that takes ``--motor-speed`` gets as far as
+#: building a speed-clamped Motor (the threshold searches take the flag without a value:
+#: they look for the critical rotation rate)
+DRIVE_COMMANDS = {
+    "simulate": ["--motor-speed", "500"], "stability": ["--motor-speed", "500"],
+    "sweep": ["--motor-speed", "500", "--out", "{tmp}/s.nc"],
+    "critical-torque": ["--motor-speed", "--segment-length", "0.4"],
+    "bifurcations": ["--motor-speed", "--mc1-only", "--segment-length", "0.4"],
+}
+
+
+@pytest.fixture
+def first_clamp(monkeypatch):
+    """Raise _Built with the first speed-clamped Motor built."""
+    from flagellum.motor import Motor
+
+    post_init = Motor.__post_init__
+
+    def spy(self):
+        post_init(self)
+        if self.drive == "speed":
+            raise _Built(self)
+
+    monkeypatch.setattr(Motor, "__post_init__", spy)
+
+
+def test_drive_commands_are_all_tested():
+    assert _commands_with("motor_speed") == set(DRIVE_COMMANDS)
+    assert _commands_with("motor_law") == set(DRIVE_COMMANDS)
+
+
+@pytest.mark.parametrize("command", sorted(DRIVE_COMMANDS))
+def test_motor_speed_flag_is_a_speed_clamp(command, first_clamp, tmp_path):
+    """``--motor-speed`` is a speed clamp in every command (for ``critical-torque`` and
+    ``bifurcations``: the clamp whose critical rotation rate they find)."""
+    extra = [a.format(tmp=tmp_path) for a in DRIVE_COMMANDS[command]]
+    with pytest.raises(_Built) as built:
+        run([command, *extra])
+    m = built.value.args[0]
+    assert m.drive == "speed"
+    if command in ("simulate", "stability", "sweep"):
+        assert m.speed == 500.0
+
+
+@pytest.mark.parametrize("command", sorted(DRIVE_COMMANDS))
+def test_two_drives_are_one_line_errors(command, cli, tmp_path):
+    extra = [a.format(tmp=tmp_path) for a in DRIVE_COMMANDS[command]]
+    flag = ["--motor-law", "e-coli"] if command in ("critical-torque", "bifurcations") else \
+        ["--torque", "1"]
+    code, _, err = cli(command, *extra, *flag)
+    assert_one_line_error(code, err)
+    assert not (tmp_path / "s.nc").exists()
+
+
 # -- hydrodynamics flags: every command that builds a model -------------------------------
 
 #: the further arguments with which each command that takes ``--hydrodynamics`` gets as far

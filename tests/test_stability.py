@@ -103,8 +103,13 @@ def test_mirror_image_has_the_same_spectrum():
 
 
 # -- spectrum ------------------------------------------------------------------------------
-def test_reduced_spectrum_is_the_full_one_minus_trivial_modes():
-    res = _stability(1.0)
+@pytest.mark.parametrize("anchor", ["fixed", "free"])
+def test_reduced_spectrum_is_the_full_one_minus_trivial_modes(anchor):
+    """Free swimmer (body a = 1 µm): its three rigid translations are quotiented out; they
+    take the places of the anchored bead's three modes (axial 0, lateral ±iΩ in the
+    co-rotating frame)."""
+    res = _stability(1.0) if anchor == "fixed" else linear_stability(
+        Params(), 1.0, Boundary("free", 1.0), n_eigs=1000)
     eq = res.equilibrium
     m, y = eq.model(), eq.state
     n = len(y)
@@ -119,7 +124,7 @@ def test_reduced_spectrum_is_the_full_one_minus_trivial_modes():
         k = int(np.argmin([abs(f - lam) for f in full]))
         assert abs(full[k] - lam) < 1e-6 * abs(lam) + 1e-4
         full.pop(k)
-    # left over: |u0|, anchored bead (z, and x ± iy turning at −Ω), rotation about e_z
+    # left over: |u0|, bead 0 (z, and x ± iy turning at −Ω), rotation about e_z
     left = sorted(full, key=lambda z: z.imag)
     want = [-1j * eq.omega, 0, 0, 0, 1j * eq.omega]
     assert np.allclose(left, want, atol=1e-5 * abs(eq.omega))

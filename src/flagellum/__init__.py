@@ -28,7 +28,7 @@ _EXPORTS = {
     "Trajectory": "trajectory", "open_trajectory": "trajectory",
     "Helix": "helix", "discrete_helix": "helix",
     "critical_torque": "analysis.stability", "linear_stability": "analysis.stability",
-    "relative_equilibrium": "analysis.stability",
+    "relative_equilibrium": "analysis.stability", "critical_speed": "analysis.stability",
     "Sweep": "sweep", "run_sweep": "sweep", "read_sweep": "sweep",
     "FlagellumError": "errors", "ParameterError": "errors", "SimulationError": "errors",
 }

@@ -25,7 +25,7 @@ MODEL_PARAMETERS: dict[str, type] = {
     "friction": str, "gamma_par": float, "gamma_perp": float, "gamma_rot": float,
 }
 PARAMETERS: dict[str, type] = {
-    **MODEL_PARAMETERS, "torque": float, "ramp_time": float,
+    **MODEL_PARAMETERS, "torque": float, "motor_speed": float, "motor_law": str, "ramp_time": float,
     "anchor": str, "sphere_radius": float, "hook": str, "hook_stiffness": float,
     "hydrodynamics": str, "hydro_refresh": float,
     "time": float, "save_every": float, "average_from": float,

@@ -231,6 +231,25 @@ class Motor:
         object.__setattr__(self, "reversal_seed", int(seed))
         object.__setattr__(self, "_switches", [])  # telegraph switching times drawn so far
 
+    @classmethod
+    def from_flags(cls, torque: float | None = None, motor_speed: float | None = None,
+                   motor_law=None, **reversals) -> "Motor":
+        """The drive of the command-line flags and sweep values (one rule for every command):
+        at most one of ``torque``, ``motor_speed`` (a speed clamp) and ``motor_law``
+        (``"e-coli"``, a :class:`MotorLaw` or a table file) given, default the torque 1;
+        ``reversals`` the further fields (ramp_time, reversals, reversal_rates, reversal_seed)."""
+        given = [f"--{n}" for n, v in (("torque", torque), ("motor-speed", motor_speed),
+                                        ("motor-law", motor_law)) if v is not None]
+        if len(given) > 1:
+            raise ParameterError("drive", " ".join(given), "one of --torque, --motor-speed, --motor-law")
+        if motor_speed is not None:
+            return cls(drive="speed", speed=motor_speed, **reversals)
+        if motor_law is not None:
+            law = motor_law if isinstance(motor_law, MotorLaw) else (
+                MotorLaw.e_coli() if motor_law == "e-coli" else MotorLaw.from_file(motor_law))
+            return cls(drive="law", law=law, **reversals)
+        return cls(1.0 if torque is None else torque, **reversals)
+
     # -- time dependence -------------------------------------------------------------
     def _ramp(self, t: float) -> float:
         if self.ramp_time > 0 and t < self.ramp_time:

@@ -114,6 +114,8 @@ PARAMETER_ATTRS: dict[str, tuple[str | None, str]] = {
     "gamma_perp": ("pN s/um^2", "perpendicular friction coefficient per length"),
     "gamma_rot": ("pN s", "rotational friction coefficient per length"),
     "torque": ("pN um", "motor torque M"),
+    "motor_speed": ("rad/s", "speed clamp: imposed motor speed relative to the body"),
+    "motor_law": (None, "torque-speed law of the motor (e-coli or a table file)"),
     "ramp_time": ("s", "ramp time of the motor torque"),
     "anchor": (None, "anchor of bead 0"),
     "sphere_radius": ("um", "radius of the anchoring sphere"),
@@ -252,7 +254,8 @@ class PointRun:
 
         params = Params.from_flat({k: v[k] for k in MODEL_PARAMETERS if k in v})
         params.gammas  # noqa: B018 -- resolves (and so validates) the friction model
-        motor = Motor(**{k: v[k] for k in ("torque", "ramp_time") if k in v})
+        motor = Motor.from_flags(v.get("torque"), v.get("motor_speed"), v.get("motor_law"),
+                                 ramp_time=v.get("ramp_time", 0.0))
         boundary = Boundary.from_flags(**{k: v[k] for k in ("anchor", "sphere_radius", "hook",
                                                             "hook_stiffness") if k in v})
         thermal = bool(v.get("thermal", "kT" in v))

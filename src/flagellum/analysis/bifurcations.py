@@ -240,20 +240,31 @@ def _chain_task(arg) -> dict:
 
 
 def critical(params: Params, boundary: Boundary, xtol: float = 1e-3,
-             hydrodynamics: Hydrodynamics | None = None) -> dict:
-    """M_c1 from linear stability, the bracket widened upwards (a load sphere raises M_c1)."""
-    from .stability import BRACKETS, critical_torque
+             hydrodynamics: Hydrodynamics | None = None, drive: str = "torque") -> dict:
+    """M_c1 from linear stability, the bracket widened upwards (a load sphere raises M_c1).
 
+    ``drive="speed"``: the critical rotation rate ω_c1 of a speed clamp instead
+    (:func:`flagellum.analysis.stability.critical_speed`, to ``xtol`` · 1000 rad/s), with
+    the torque the clamp takes there (``M_at_omega_c1``)."""
+    from .stability import BRACKETS, critical_speed, critical_torque
+
+    check_choice("drive", drive, ("torque", "speed"))
     (lo, hi), last = BRACKETS[(hydrodynamics or Hydrodynamics()).model], None
     for _ in range(5):
         try:
+            if drive == "speed":
+                ct = critical_speed(params, boundary, None, 1e3 * xtol, hydrodynamics=hydrodynamics,
+                                    torque_bracket=(lo, hi))
+                return {"omega_c1": ct.motor_speed, "omega_c1_uncertainty": 1e3 * xtol,
+                        "M_at_omega_c1": ct.critical_torque, "F_c1": ct.critical_force}
             ct = critical_torque(params, boundary, (lo, hi), xtol, hydrodynamics=hydrodynamics)
             return {"M_c1": ct.critical_torque, "M_c1_uncertainty": xtol, "F_c1": ct.critical_force}
         except ParameterError as exc:
             if exc.name != "bracket":
                 raise
             last, lo, hi = str(exc), hi, 2 * hi
-    return {"M_c1": None, "M_c1_uncertainty": None, "F_c1": None, "M_c1_note": last}
+    key = "omega_c1" if drive == "speed" else "M_c1"
+    return {key: None, f"{key}_uncertainty": None, "F_c1": None, f"{key}_note": last}
 
 
 # -- the whole analysis -------------------------------------------------------------------
@@ -281,12 +292,15 @@ def bifurcations(params: Params | None = None, boundary: Boundary | None = None,
                  confirm_mc1: float | None = None, workers: int = 1, progress: bool = False,
                  on_probe: Callable[[list], None] | None = None,
                  simulate: Simulate | None = None,
-                 hydrodynamics: Hydrodynamics | None = None) -> dict:
+                 hydrodynamics: Hydrodynamics | None = None, drive: str = "torque") -> dict:
     """M_c1, M_c2 with uncertainties, optional hysteresis, and the regime of every probe.
 
     ``simulate`` replaces the simulation (tests); ``on_probe(probes)`` is called after
     every finished probe (used to write partial results); ``hydrodynamics`` the filament's
-    mobility in the runs and in the linear stability (default local RFT).
+    mobility in the runs and in the linear stability (default local RFT). ``drive="speed"``
+    gives the critical rotation rate ω_c1 of a speed clamp instead of M_c1 (:func:`critical`);
+    the M_c2 scan and the confirmation runs are torque-driven, so they need ``mc2=False``
+    and no ``confirm_mc1`` then.
     """
     wall0 = time.perf_counter()
     params, boundary = params or Params(), boundary or Boundary()
@@ -298,6 +312,9 @@ def bifurcations(params: Params | None = None, boundary: Boundary | None = None,
     check_workers("workers", workers)
     if confirm_mc1 is not None:
         confirm_mc1 = check_range("confirm_mc1", confirm_mc1, 0.0, 0.9)
+    if check_choice("drive", drive, ("torque", "speed")) == "speed" and (mc2 or confirm_mc1 is not None):
+        raise ParameterError("drive", "speed", "only with mc1_only (--mc1-only) and without "
+                             "confirm_mc1: the M_c2 scan and the confirmation runs are torque-driven")
     simulate = simulate or RunConfig(params, boundary, t_end, hydrodynamics=hydrodynamics)
 
     out = {"quality": quality, "sphere_radius": boundary.sphere_radius, "t_end": t_end, "tol": tol,
@@ -314,8 +331,11 @@ def bifurcations(params: Params | None = None, boundary: Boundary | None = None,
         chains = runner.start(_chain_task, [(simulate, torques, "up", tol), (simulate, torques[::-1], "down", tol)],
                               total=2 * n_chain) if n_chain else {}
         scan = runner.start(_probe_task, [(simulate, float(m), "scan") for m in torques]) if mc2 else {}
-        out.update(critical(params, boundary, hydrodynamics=hydrodynamics))
-        out["M_c1_method"] = "linear stability: root of λ(M) (uncertainty = root tolerance)"
+        out.update(critical(params, boundary, hydrodynamics=hydrodynamics,
+                            **({"drive": drive} if drive != "torque" else {})))
+        out["M_c1_method" if drive == "torque" else "omega_c1_method"] = (
+            "linear stability: root of λ(M) (uncertainty = root tolerance)" if drive == "torque"
+            else "linear stability of the speed clamp: root of λ(ω) (uncertainty = root tolerance)")
         if confirm_mc1 is not None and out["M_c1"] is not None:
             below, above = runner.probe(simulate, [out["M_c1"] * (1 + s * confirm_mc1) for s in (-1, 1)], "confirm")
             out["M_c1_confirmed"] = below["regime"] == "aligned" and above["regime"] in (LOWER, UPPER)

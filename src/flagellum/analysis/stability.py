@@ -20,7 +20,10 @@ Method
   coordinates are dropped), the hook tangent u0 moves on its sphere |u0| = const (two
   tangent-plane coordinates; none with a clamped hook, whose u0 is fixed), and with a load
   sphere the common translation along z is quotiented out by measuring every bead's ż
-  relative to the sphere's, ż_i − ż_0 (the sphere speed v = ż_0 is an output).
+  relative to the sphere's, ż_i − ż_0 (the sphere speed v = ż_0 is an output); for a free
+  swimmer (body sphere on bead 0) all three translations, ṙ_i − ṙ_0 (:data:`DRIFT`): its
+  relative equilibrium is a fixed point in the frame moving with bead 0 and rotating about
+  the e_z axis through it.
 * **Relative equilibrium.** Newton on (ξ, Ω) with the bordered Jacobian
   [[J, −G], [Ĝᵀ, 0]]: the phase condition Ĝ·δξ = 0 fixes the rotational symmetry and Ω is
   the extra unknown. J is a dense central finite-difference Jacobian (≈ 4N unknowns). The
@@ -34,6 +37,10 @@ Method
 * **Critical torque.** M_c1 is the root of λ(M) (Brent's method on a sign-changing
   bracket), F_c1 the thrust there: the paper's F = −∂𝓕/∂r⁽⁰⁾·e_z, the elastic force on
   the first bead (with a load sphere, (6πηa + drag of bead 0)·v).
+* **Drives.** A speed clamp or a torque–speed law (``motor``) selects the constant-torque
+  state whose torque it needs (the kernel solves the same hook balance); the state is then
+  linearized with that drive, whose solved torque responds to the perturbation
+  (:func:`_on_drive`); :func:`critical_speed` is the critical rotation rate of a clamp.
 * **Mobility.** The local RFT of the paper, or (``hydrodynamics``) the nonlocal mobility of
   :mod:`flagellum.hydro.dynamics`, then evaluated unfrozen: rebuilt at the state of every
   evaluation, so that f, its fixed point and J are those of the nonlocal dynamics itself.
@@ -67,6 +74,19 @@ K_START, CLAMP_STIFFNESS = 1e-2, 1e4  #: hook stiffnesses [pN·µm] of the conti
 #: (λ = +0.009 /s at M = 0.5, −1.19 /s at M = 1; docs/hydrodynamics.md), so its bracket
 #: starts at 1
 BRACKETS = {"rft": (0.5, 2.0), "sbt": (1.0, 2.5)}
+#: components of bead 0's velocity that are a rigid translation of the whole filament, by
+#: anchor: quotiented out of the reduced dynamics (a free swimmer's body, centred on bead 0,
+#: translates in 3D; the motor axis stays e_z, so the rotation about e_z is the only other
+#: continuous symmetry)
+DRIFT = {"fixed": (), "sphere": (2,), "free": (0, 1, 2)}
+
+
+def _relative_speed(params: Params, boundary: Boundary, torque: float, omega: float) -> float:
+    """Motor speed relative to the body at filament rate Ω and torque M: Ω + M/(8πηa³) for a
+    free swimmer with a body sphere (it counter-rotates, :meth:`Boundary.body_rotation_rate`),
+    Ω otherwise."""
+    body = boundary.body_rotation_rate(torque, params.fluid.viscosity)
+    return omega - body if math.isfinite(body) else omega
 
 
 # -- results -------------------------------------------------------------------------------
@@ -77,9 +97,11 @@ class RelativeEquilibrium:
     ``state`` is the rod state (bead 0 at the origin) whose material angles refer to
     ``charts`` = (ref_u, ref_e); ``hydrodynamics`` the bead mobility (a nonlocal one
     unfrozen, see :func:`_unfrozen`); ``omega`` = Ω the rotation rate [rad/s]; ``thrust`` the
-    elastic force on bead 0 along e_z [pN]; ``velocity`` the speed of the load sphere
-    along e_z [µm/s] (0 when anchored); ``residual`` the largest |ẏ| left in the reduced
-    coordinates [µm/s or rad/s]; ``iterations`` the Newton iterations of the last solve.
+    elastic force on bead 0 along e_z [pN]; ``velocity`` the speed of the load sphere or of
+    the free swimmer's body along e_z [µm/s] (0 when anchored); ``residual`` the largest |ẏ|
+    left in the reduced coordinates [µm/s or rad/s]; ``iterations`` the Newton iterations of
+    the last solve. ``motor`` is the drive the state is linearized with (None: the constant
+    torque ``torque``; a speed clamp or a law holds ``torque`` as its solved torque).
     """
 
     params: Params
@@ -93,11 +115,18 @@ class RelativeEquilibrium:
     residual: float
     iterations: int
     hydrodynamics: Hydrodynamics = Hydrodynamics()
+    motor: Motor | None = None
+
+    @property
+    def motor_speed(self) -> float:
+        """Motor speed relative to the body [rad/s]: Ω, plus M/(8πηa³) for a free swimmer
+        whose body counter-rotates (docs/motor.md)."""
+        return _relative_speed(self.params, self.boundary, self.torque, self.omega)
 
     def model(self) -> RodModel:
-        """A :class:`RodModel` in the co-rotating frame with this state's charts."""
-        m = RodModel(self.params, Motor(self.torque), self.boundary, omega_frame=self.omega,
-                     hydrodynamics=self.hydrodynamics)
+        """A :class:`RodModel` in the co-rotating frame with this state's charts (and drive)."""
+        m = RodModel(self.params, self.motor or Motor(self.torque), self.boundary,
+                     omega_frame=self.omega, hydrodynamics=self.hydrodynamics)
         m.set_charts(*self.charts)
         return m
 
@@ -109,7 +138,9 @@ class StabilityResult:
     ``eigenvalues``: the leading ``n_eigs`` non-trivial eigenvalues [1/s] (co-rotating
     frame), sorted by real part, largest first; ``lambda_`` the largest real part (the
     paper's reorientation rate λ, Fig. 4(a)); ``frequency`` = |Im| of the leading one;
-    ``lab_frequency`` the rotation rate of its pattern about e_z in the lab [rad/s].
+    ``lab_frequency`` the rotation rate of its pattern about e_z in the lab [rad/s];
+    ``drive`` the drive linearized with (``"torque"``, ``"speed"``: clamp, ``"law"``) and
+    ``motor_speed`` the motor speed relative to the body [rad/s].
     """
 
     torque: float
@@ -121,9 +152,12 @@ class StabilityResult:
     lab_frequency: float
     eigenvalues: np.ndarray
     equilibrium: RelativeEquilibrium = field(repr=False)
+    drive: str = "torque"
+    motor_speed: float = math.nan
 
     def to_dict(self) -> dict:
-        return {"torque": self.torque, "omega": self.omega, "thrust": self.thrust,
+        return {"drive": self.drive, "torque": self.torque, "omega": self.omega,
+                "motor_speed": self.motor_speed, "thrust": self.thrust,
                 "velocity": self.velocity, "lambda": self.lambda_, "frequency": self.frequency,
                 "lab_frequency": self.lab_frequency,
                 "eigenvalues": [[float(e.real), float(e.imag)] for e in self.eigenvalues]}
@@ -141,6 +175,10 @@ class CriticalTorque:
     lab_frequency: float  #: its rotation rate in the lab (precession at onset) [rad/s]
     evaluations: int  #: number of λ(M) evaluations
     wall_seconds: float
+    #: the drive of the threshold: "torque" (M_c1) or "speed" (a speed clamp: the critical
+    #: rotation rate ω_c1 is ``motor_speed``, ``critical_torque`` the torque the clamp takes)
+    drive: str = "torque"
+    motor_speed: float = math.nan  #: motor speed relative to the body at the threshold [rad/s]
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -162,14 +200,18 @@ class _Reduced:
     """Reduced coordinates ξ around a base state y: y(ξ) = y + Q ξ, ẏ_red = R ẏ.
 
     Q keeps θ0 and beads 1..N (and two tangent directions of u0 unless the hook is
-    clamped); R also subtracts the sphere's ż_0 from the beads' ż (zero when anchored).
+    clamped); R also subtracts bead 0's velocity from the beads' along the directions in
+    which bead 0 moves (:data:`DRIFT`: none anchored, ż_0 on a load sphere, all three for a
+    free swimmer): the rigid translations are quotiented out.
     """
 
     def __init__(self, model: RodModel, y: np.ndarray):
         self.model = model
         n = model.n
         self.idx = np.array([6] + [3 + 4 * i + k for i in range(1, n + 1) for k in range(4)])
-        self.zpos = np.nonzero((self.idx - 5) % 4 == 0)[0]  # entries of idx that are z_i
+        comp = (self.idx - 3) % 4  # 0, 1, 2: x, y, z of a bead; 3: an angle
+        # (entry of idx, component of bead 0's velocity subtracted from it)
+        self.drift = [(j, int(c)) for j, c in enumerate(comp) if c in DRIFT[model.boundary.anchor]]
         self.n_u = 0 if model.boundary.hook == "clamped" else 2
         self.size = self.n_u + len(self.idx)
         self.rebase(y)
@@ -191,7 +233,8 @@ class _Reduced:
         out = np.empty(self.size)
         out[: self.n_u] = self.basis @ f[:3]
         r = f[self.idx]
-        r[self.zpos] -= f[5]
+        for j, c in self.drift:
+            r[j] -= f[3 + c]
         out[self.n_u:] = r
         return out
 
@@ -291,9 +334,6 @@ class _Branch:
 
     def __init__(self, params: Params, boundary: Boundary, tol: float = 1e-10, max_iter: int = 25,
                  hydrodynamics: Hydrodynamics | None = None):
-        if boundary.anchor == "free":
-            raise ParameterError("anchor", "free", "'fixed' or 'sphere' for the stability analysis "
-                                 "(a free swimmer's lateral drift is not quotiented out)")
         self.params, self.boundary = params, boundary
         self.tol, self.max_iter = tol, max_iter
         self.hydrodynamics = _unfrozen(hydrodynamics)
@@ -408,6 +448,74 @@ def relative_equilibrium(params: Params | None = None, torque: float = 1.0,
                    hydrodynamics=hydrodynamics).at(torque, max_step)
 
 
+# -- drives --------------------------------------------------------------------------------
+def steady_drive(motor: Motor | None, torque: float | None = None) -> Motor:
+    """The drive of a stability analysis: ``motor``, or the constant ``torque``; refused
+    (:class:`ParameterError`) when it is not steady: reversals, a schedule or a ramp."""
+    if motor is None:
+        return Motor(_check_torque(1.0 if torque is None else torque))
+    if not isinstance(motor, Motor):
+        raise ParameterError("motor", motor, "a Motor")
+    for name in ("reversals", "reversal_rates", "schedule"):
+        if getattr(motor, name) is not None:
+            raise ParameterError(name, getattr(motor, name), "none for the stability analysis "
+                                 "(it linearizes a steadily rotating state)")
+    if motor.ramp_time:
+        raise ParameterError("ramp_time", motor.ramp_time, "0 for the stability analysis "
+                             "(the steady state does not depend on how the motor started)")
+    if motor.drive == "torque":
+        _check_torque(motor.torque)
+    return motor
+
+
+def _drive_gap(motor: Motor, eq: RelativeEquilibrium) -> float:
+    """How far the constant-torque state ``eq`` is from the drive's operating point: the
+    clamp's speed error [rad/s], or the law's torque error [pN·µm]."""
+    if motor.drive == "speed":
+        return eq.motor_speed - motor.speed
+    return eq.torque - float(motor.law(eq.motor_speed))
+
+
+def _on_drive(branch: "_Branch", motor: Motor, max_iter: int = 40) -> RelativeEquilibrium:
+    """The aligned state the drive selects, linearized with that drive.
+
+    A speed clamp ω_c or a law f keeps the steady state of the constant torque M it needs
+    (the kernel solves the same hook balance Eq. (12) for M, docs/motor.md): the state on the
+    constant-torque branch where the motor speed relative to the body s(M) equals ω_c, or
+    where M = f(s(M)). M is found by a secant iteration along the branch (s(M) is smooth and
+    increasing through M_c1). The returned state carries the drive, so that its Jacobian is
+    that of the clamped (or law-driven) dynamics: a perturbation then changes the torque
+    instead of the hook's rate (the hook row of the Jacobian changes).
+    """
+    if motor.drive == "torque":
+        return branch.at(motor.torque)
+    from ..hydro.rft import pinned_omega_per_torque
+
+    m_a = motor.expected_torque(pinned_omega_per_torque(branch.params))
+    if motor.drive == "law":
+        m_a = min(m_a, motor.law.stall_torque)
+    m_a = _check_torque(m_a)
+    scale = abs(motor.speed) if motor.drive == "speed" else motor.law.stall_torque
+    eq_a = branch.at(m_a)
+    g_a = _drive_gap(motor, eq_a)
+    m_b = m_a * (0.98 if g_a > 0 else 1.02)
+    for _ in range(max_iter):
+        eq_b = branch.at(m_b)
+        g_b = _drive_gap(motor, eq_b)
+        if abs(g_b) <= 1e-11 * scale:
+            return replace(eq_b, motor=motor)
+        if g_b == g_a:
+            break
+        step = -g_b * (m_b - m_a) / (g_b - g_a)
+        step = max(-0.2 * abs(m_b), min(0.2 * abs(m_b), step))  # s(M) bends near M_c1
+        m_a, g_a, m_b = m_b, g_b, m_b + step
+        if m_b * m_a <= 0:
+            break
+    what = f"motor speed {motor.speed:g} rad/s" if motor.drive == "speed" else "this law"
+    raise SimulationError(f"no aligned rotating state found for {what} "
+                          f"(the torque iteration stopped near M = {m_b:g} pN·µm)")
+
+
 # -- spectrum ------------------------------------------------------------------------------
 def _householder(v: np.ndarray) -> np.ndarray:
     """Symmetric orthogonal H with H v̂ = ±e_0 (its columns 1.. span v̂⊥)."""
@@ -439,7 +547,8 @@ def _spectrum(eq: RelativeEquilibrium) -> tuple[np.ndarray, float]:
 def linear_stability(params: Params | None = None, torque: float = 1.0,
                      boundary: Boundary | None = None, n_eigs: int = 6, *,
                      equilibrium: RelativeEquilibrium | None = None,
-                     hydrodynamics: Hydrodynamics | None = None) -> StabilityResult:
+                     hydrodynamics: Hydrodynamics | None = None,
+                     motor: Motor | None = None) -> StabilityResult:
     """Eigenvalues of the aligned state's Jacobian, trivial modes removed.
 
     Parameters
@@ -448,6 +557,10 @@ def linear_stability(params: Params | None = None, torque: float = 1.0,
     n_eigs : how many leading eigenvalues to return.
     equilibrium : reuse a computed :class:`RelativeEquilibrium` (params, torque and
         boundary and hydrodynamics are then taken from it).
+    motor : the drive instead of ``torque`` (:func:`steady_drive`): a constant torque, a
+        speed clamp (``Motor(drive="speed", speed=ω)``: the aligned state rotating with the
+        motor at ω relative to the body, linearized with the clamp: the torque is an output)
+        or a torque–speed law (at its operating point, linearized with the law).
 
     Returns
     -------
@@ -456,10 +569,15 @@ def linear_stability(params: Params | None = None, torque: float = 1.0,
     """
     if isinstance(n_eigs, bool) or not isinstance(n_eigs, (int, np.integer)) or n_eigs < 1:
         raise ParameterError("n_eigs", n_eigs, "an integer ≥ 1")
-    eq = equilibrium or relative_equilibrium(params, torque, boundary, hydrodynamics=hydrodynamics)
+    if equilibrium is None:
+        motor = steady_drive(motor, torque)
+        branch = _Branch(params or Params(), boundary or Boundary(), hydrodynamics=hydrodynamics)
+        equilibrium = _on_drive(branch, motor)
+    eq = equilibrium
     w, lab = _spectrum(eq)
     return StabilityResult(eq.torque, eq.omega, eq.thrust, eq.velocity, float(w[0].real),
-                           float(abs(w[0].imag)), float(lab), w[:n_eigs], eq)
+                           float(abs(w[0].imag)), float(lab), w[:n_eigs], eq,
+                           (eq.motor or Motor(eq.torque)).drive, eq.motor_speed)
 
 
 def critical_torque(params: Params | None = None, boundary: Boundary | None = None,
@@ -498,7 +616,57 @@ def critical_torque(params: Params | None = None, boundary: Boundary | None = No
     mc = brentq(lam, lo, hi, xtol=xtol)
     r = results[mc] if mc in results else linear_stability(equilibrium=branch.at(mc))
     return CriticalTorque(float(mc), r.thrust, r.omega, r.velocity, r.frequency, r.lab_frequency,
-                          len(results), time.perf_counter() - t0)
+                          len(results), time.perf_counter() - t0, "torque", r.motor_speed)
+
+
+def critical_speed(params: Params | None = None, boundary: Boundary | None = None,
+                   bracket: tuple[float, float] | None = None, xtol: float = 0.1,
+                   hydrodynamics: Hydrodynamics | None = None, *,
+                   torque_bracket: tuple[float, float] | None = None) -> CriticalTorque:
+    """Critical rotation rate ω_c1 of a speed clamp: the motor speed (relative to the body)
+    above which the clamped aligned state is unstable, the root of λ_clamp(ω) in
+    ``bracket`` [rad/s] (default: the speeds of the torques :data:`BRACKETS`), to ``xtol``
+    [rad/s]; or ``torque_bracket`` (M_lo, M_hi): the speeds of the torque-driven states
+    there.
+
+    The clamped state at ω is the constant-torque state whose speed is ω
+    (:func:`_on_drive`); only its linearization differs: the clamp fixes the hook's rate
+    about e_z, so a perturbation changes the torque instead. The root is searched in the
+    torque M along one continuation branch (ω = s(M) increases through the threshold), so
+    the result's ``critical_torque`` is the torque the clamp takes at ω_c1.
+    """
+    t0 = time.perf_counter()
+    branch = _Branch(params or Params(), boundary or Boundary(), hydrodynamics=hydrodynamics)
+    if bracket is None:
+        lo, hi = torque_bracket or BRACKETS[branch.hydrodynamics.model]
+        for m in (lo, hi):
+            _check_torque(m)
+        s_lo, s_hi = branch.at(lo).motor_speed, branch.at(hi).motor_speed
+    else:
+        try:
+            s_lo, s_hi = (check_real("bracket", float(b)) for b in bracket)
+        except (TypeError, ValueError):
+            raise ParameterError("bracket", bracket, "two motor speeds (ω_lo, ω_hi) [rad/s]")
+        if not (s_lo < s_hi and s_lo * s_hi > 0):
+            raise ParameterError("bracket", tuple(bracket), "ω_lo < ω_hi, both nonzero and of one sign")
+        lo, hi = (_on_drive(branch, Motor(drive="speed", speed=w)).torque for w in (s_lo, s_hi))
+    xtol = check_range("xtol", xtol, 0.0, 1e4)
+    results: dict[float, StabilityResult] = {}
+
+    def lam(M: float) -> float:
+        eq = branch.at(M)
+        eq = replace(eq, motor=Motor(drive="speed", speed=eq.motor_speed))
+        results[M] = linear_stability(equilibrium=eq)
+        return results[M].lambda_
+
+    l_lo, l_hi = lam(lo), lam(hi)
+    if not (l_lo < 0 < l_hi):
+        raise ParameterError("bracket", (s_lo, s_hi), "motor speeds with λ(ω_lo) < 0 < λ(ω_hi) "
+                             f"(here λ = {l_lo:.3g} and {l_hi:.3g} /s)")
+    mc = brentq(lam, lo, hi, xtol=xtol * (hi - lo) / (s_hi - s_lo))
+    r = results[mc] if mc in results else (lam(mc), results[mc])[1]
+    return CriticalTorque(float(mc), r.thrust, r.omega, r.velocity, r.frequency, r.lab_frequency,
+                          len(results), time.perf_counter() - t0, "speed", r.motor_speed)
 
 
 # -- cross-check by simulation -------------------------------------------------------------
@@ -551,6 +719,6 @@ def simulated_growth_rate(equilibrium: RelativeEquilibrium, t_end: float, *,
     return GrowthFit(float(rate), t, dev, t[k], a[k])
 
 
-__all__ = ["BRACKETS", "RelativeEquilibrium", "StabilityResult", "CriticalTorque", "GrowthFit",
-           "relative_equilibrium", "linear_stability", "critical_torque",
-           "simulated_growth_rate"]
+__all__ = ["BRACKETS", "DRIFT", "RelativeEquilibrium", "StabilityResult", "CriticalTorque",
+           "GrowthFit", "relative_equilibrium", "linear_stability", "critical_torque",
+           "critical_speed", "steady_drive", "simulated_growth_rate"]

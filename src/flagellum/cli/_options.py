@@ -14,7 +14,7 @@ from pathlib import Path
 import click
 
 from ..errors import ParameterError
-from ..motor import Boundary, Motor, MotorLaw
+from ..motor import Boundary, Motor
 from ..params import Filament, Fluid, Params
 
 PARAM_HELP = {
@@ -152,22 +152,46 @@ def _floats(name: str, text: str | None) -> tuple | None:
 
 
 def motor_from_cli(kwargs: dict) -> Motor:
-    """Pop the motor flags from ``kwargs`` and build a validated :class:`Motor`."""
+    """Pop the motor flags from ``kwargs`` and build a validated :class:`Motor`
+    (:meth:`Motor.from_flags`)."""
+    return Motor.from_flags(kwargs.pop("torque"), kwargs.pop("motor_speed"), kwargs.pop("motor_law"),
+                            ramp_time=kwargs.pop("ramp_time"),
+                            reversals=_floats("reversal_times", kwargs.pop("reversal_times")),
+                            reversal_rates=_floats("reversal_rates", kwargs.pop("reversal_rates")),
+                            reversal_seed=kwargs.pop("reversal_seed"))
+
+
+def threshold_drive_options(func):
+    """The drive flags of the threshold searches (``critical-torque``, ``bifurcations``):
+    the same names as :func:`motor_options`, but ``--motor-speed`` takes no value there — it
+    asks for the critical rotation rate of a speed clamp instead of the critical torque —
+    and ``--torque`` and ``--motor-law`` are refused with a one-line error
+    (:func:`threshold_drive_from_cli`)."""
+    return _add(func, [
+        click.option("--torque", type=str, default=None, hidden=True),
+        click.option("--motor-speed", type=str, is_flag=False, flag_value="", default=None,
+                     help="under a speed clamp: find the critical rotation rate ω_c1 [rad/s] "
+                          "(then --bracket takes motor speeds ω_lo ω_hi)"),
+        click.option("--motor-law", type=str, default=None, hidden=True),
+    ])
+
+
+def threshold_drive_from_cli(kwargs: dict, command: str) -> str:
+    """Pop the threshold drive flags from ``kwargs``: ``"torque"`` (the critical torque
+    M_c1) or ``"speed"`` (``--motor-speed``: the critical rotation rate of a speed clamp)."""
     torque, speed, law = kwargs.pop("torque"), kwargs.pop("motor_speed"), kwargs.pop("motor_law")
-    given = [f for f, v in (("--torque", torque), ("--motor-speed", speed), ("--motor-law", law))
-             if v is not None]
-    if len(given) > 1:
-        raise ParameterError("drive", " ".join(given), "one of --torque, --motor-speed, --motor-law")
-    rev = dict(ramp_time=kwargs.pop("ramp_time"),
-               reversals=_floats("reversal_times", kwargs.pop("reversal_times")),
-               reversal_rates=_floats("reversal_rates", kwargs.pop("reversal_rates")),
-               reversal_seed=kwargs.pop("reversal_seed"))
-    if speed is not None:
-        return Motor(drive="speed", speed=speed, **rev)
+    if torque is not None:
+        raise ParameterError("torque", torque, f"left out: {command} searches the critical "
+                                               "torque (give --bracket M_lo M_hi)")
     if law is not None:
-        return Motor(drive="law", law=MotorLaw.e_coli() if law == "e-coli" else MotorLaw.from_file(law),
-                     **rev)
-    return Motor(1.0 if torque is None else torque, **rev)
+        raise ParameterError("motor_law", law, f"left out: {command} finds thresholds, and a "
+                                               "law fixes its operating point (its stability: "
+                                               "flagellum stability --motor-law)")
+    if speed is not None and speed != "":
+        raise ParameterError("motor_speed", speed, f"given without a value: {command} finds the "
+                                                   "critical rotation rate (give --bracket "
+                                                   "ω_lo ω_hi in rad/s)")
+    return "torque" if speed is None else "speed"
 
 
 # -- boundary -----------------------------------------------------------------------------

@@ -7,14 +7,16 @@ import click
 from .._progress import interactive
 from ..analysis.bifurcations import SCAN_SETTINGS
 from ._options import (boundary_from_cli, boundary_options, hydro_from_cli, hydro_options,
-                       output_option, param_options, params_from_cli, time_option)
+                       output_option, param_options, params_from_cli, threshold_drive_from_cli,
+                       threshold_drive_options, time_option)
 from ._output import emit_json, emit_table, write_json
 
 
 @click.command("bifurcations", short_help='Bifurcation torques M_c1 and M_c2 (Sec. 3.1)')
 @param_options
-@boundary_options(anchor=False)
+@boundary_options(anchor=True)
 @hydro_options
+@threshold_drive_options
 @click.option("--torque-range", default=None, metavar="LO:HI[:STEP]",
               help="torques of the coarse M_c2 scan [pN·µm] (default quick 3:5.5:0.5, full 2.5:5.5:0.25)")
 @time_option(default=None,
@@ -36,12 +38,14 @@ def bifurcations(torque_range, t_end, quality, tol, hysteresis, confirm_mc1, mc1
 
     M_c1 from linear stability; M_c2 from a scan of simulations classified by regime,
     refined by bisection (uncertainty: half the final bracket). Prints the regime found at
-    every torque probed.
+    every torque probed. With ``--motor-speed`` (no value; needs ``--mc1-only``) the
+    critical rotation rate ω_c1 of a speed clamp instead of M_c1.
     """
     import os
 
     from ..analysis.bifurcations import bifurcations as find
 
+    drive = threshold_drive_from_cli(kwargs, "bifurcations")
     boundary = boundary_from_cli(kwargs)
     params = params_from_cli(kwargs)
     hydrodynamics = hydro_from_cli(kwargs)
@@ -59,7 +63,8 @@ def bifurcations(torque_range, t_end, quality, tol, hysteresis, confirm_mc1, mc1
     res = find(params, boundary, quality=quality, torque_range=torque_range, t_end=t_end, tol=tol,
                hysteresis=hysteresis, mc2=not mc1_only, confirm_mc1=confirm_mc1,
                workers=workers if workers is not None else (os.cpu_count() or 1),
-               progress=not as_json and interactive(), on_probe=partial, hydrodynamics=hydrodynamics)
+               progress=not as_json and interactive(), on_probe=partial, hydrodynamics=hydrodynamics,
+               drive=drive)
     if out:
         write_json(out, {**res, "complete": True})
     if as_json:

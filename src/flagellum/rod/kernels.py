@@ -580,7 +580,13 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
     qx, qy, qz = _cross(tx, ty, tz, GT[0, 0], GT[0, 1], GT[0, 2])
     mx = ext_hook[0] - (qx + GTH[0] * tx)
     my = ext_hook[1] - (qy + GTH[0] * ty)
-    mz = ext_hook[2] + el * prm[P_TORQUE] - (qz + GTH[0] * tz)
+    if iprm[I_DRIVE] == DRIVE_TORQUE:
+        torque = el * prm[P_TORQUE]
+        mz = ext_hook[2] + el * prm[P_TORQUE] - (qz + GTH[0] * tz)
+    else:  # a clamp's or a law's drive value is no torque: its torque is added below, once
+        # solved (applying the drive value and taking it off again loses digits)
+        torque = 0.0
+        mz = ext_hook[2] - (qz + GTH[0] * tz)
     mt = mx * tx + my * ty + mz * tz
     zt, zp = L.hook_friction(h, gperp, grot, iprm[I_HOOK] == HOOK_CLAMPED)
     wt = mt / zt
@@ -591,12 +597,10 @@ def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
         wx = wt * tx + ipp * (mx - mt * tx)
         wy = wt * ty + ipp * (my - mt * ty)
         wz = wt * tz + ipp * (mz - mt * tz)
-    torque = el * prm[P_TORQUE]
-    if iprm[I_DRIVE] != DRIVE_TORQUE:  # speed clamp or law: prm[P_TORQUE] is no torque; the
-        # rates are linear in the torque M e_z: take the drive value off, add the motor torque
-        dm = -torque
-        torque = 0.0 if el == 0.0 else motor_torque(prm, iprm, wz + dm * _hook_rate(tz, zt, zp), tz, zt, zp)
-        dm += torque
+    if iprm[I_DRIVE] != DRIVE_TORQUE:  # speed clamp or law: the rates are linear in the
+        # torque M e_z, and w are the rates without it: add the solved motor torque
+        torque = 0.0 if el == 0.0 else motor_torque(prm, iprm, wz, tz, zt, zp)
+        dm = torque
         wt = dm * tz / zt
         wx, wy, wz = wx + wt * tx, wy + wt * ty, wz + wt * tz
         if zp != 0.0:

@@ -388,6 +388,7 @@ def test_lab_state_of_a_cell_turns_its_orientation_with_the_frame():
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_e_coli_like_cell_swims_as_measured():
     """Literature comparison, stated and not tuned (docs/motor.md, "Whole cell"): the paper's
     filament on an elastic hook (k = 5 pN·µm) driven by the E. coli motor law, on a

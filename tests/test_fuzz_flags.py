@@ -272,6 +272,7 @@ def test_a_sample_keeps_the_contract_in_a_fresh_process(template, tmp_path, no_w
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_a_sample_keeps_the_contract_when_the_work_runs(template, tmp_path):
     """A seeded sample run for real, nothing stopped: short simulations (the fuzzed flag
     after a 3-ms run's settings, so that it wins), movies, snapshots and exports. A failure

@@ -237,6 +237,7 @@ def test_stability_sees_the_unfrozen_mobility():
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_sbt_critical_torque_of_the_anchored_filament():
     from flagellum.analysis.stability import critical_torque
 
@@ -246,6 +247,7 @@ def test_sbt_critical_torque_of_the_anchored_filament():
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 @pytest.mark.parametrize("factor,regime", [(0.9, "aligned"), (1.1, "buckled")])
 def test_sbt_critical_torque_confirmed_by_simulation(factor, regime):
     """0.8 s from the stress-free helix (≈ 30 and 50 s): aligned at 0.9 M_c1, buckled at 1.1 M_c1."""
@@ -286,6 +288,7 @@ def test_free_swimmer_speed_matches_the_sbt_rigid_body():
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_frozen_mobility_converges_to_the_unfrozen_one_with_the_refresh_distance():
     """Anchored filament from the pinned helix at M = 1.6 (N = 50, 0.02 s, the tip swinging
     out): the thrust's largest deviation from the unfrozen reference (refresh 0) shrinks with
@@ -303,6 +306,7 @@ def test_frozen_mobility_converges_to_the_unfrozen_one_with_the_refresh_distance
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_fig6_and_fig8_take_the_nonlocal_mobility():
     """Fig. 6 with SBT adds the rigid helix' nonlocal thrust per torque: on the continuum
     helix' Gauss nodes 0.5846 /µm, within 1 % of the converged bead value 0.5875 /µm

@@ -65,6 +65,7 @@ def test_nonlocal_noise_has_the_covariance_of_the_symmetric_mobility():
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_equipartition_with_the_nonlocal_mobility():
     """No motor: ⟨E⟩ = ½kT per quadratic mode, 4N modes (test_thermal.py), whatever the
     mobility: a check that drift, noise and the Itô term of M_s are consistent."""
@@ -78,6 +79,7 @@ def test_equipartition_with_the_nonlocal_mobility():
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_tangent_correlation_with_the_nonlocal_mobility():
     """Straight rod: ⟨t_i·t_{i+k}⟩ = exp(−k h kT/A) (worm-like chain), as with RFT."""
     A = 3.5
@@ -117,6 +119,7 @@ def _tilt_resistance(r, x):
 
 
 @pytest.mark.slow
+@pytest.mark.ci
 def test_stiff_rod_tilt_diffusion_is_kT_over_its_nonlocal_resistance():
     """Einstein relation with HI: a rigid rod pinned at one end tilts with D = kT/B⊥, B⊥ the
     rotational resistance about the pin: from hydro.sbt.resistance_matrix with the nonlocal

@@ -262,6 +262,10 @@ POLYMORPHIC_FORMS = {
     "normal": (2.22, 0.41, 1),
     "semicoiled": (1.11, 0.40, -1),
     "curly1": (1.04, 0.38, -1),
+    # the form before normal in Calladine's sequence, left-handed like it, of nearly zero
+    # pitch (Darnton & Berg 2007, Table 1, from recall, unverified: a placeholder of that
+    # description, see docs/polymorphism.md)
+    "coiled": (0.3, 0.9, 1),
 }
 
 

@@ -325,7 +325,9 @@ class Simulator:
             self.model.set_omega_frame(check_range("omega_frame", omega_frame, -1e6, 1e6, lo_open=False))
         self.y = arrays[0]
         self.model.set_charts(*arrays[1:])
-        self.model.trap_origin = float(self.y[5 + 4 * self.model.n])  # a trap starts at the given free end
+        # a trap's centre is at the given free end at the start time t (it moves from there)
+        rate = self.end_load.pull_rate if self.end_load is not None else 0.0
+        self.model.trap_origin = float(self.y[5 + 4 * self.model.n]) + rate * self.t
         phi = getattr(state, "phi", None)
         if phi is not None and self.polymorphism is not None:
             phi = np.array(phi, float)

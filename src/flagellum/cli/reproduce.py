@@ -19,7 +19,8 @@ from ._output import emit_json, emit_table
 @hydro_options
 @click.option("--json", "as_json", is_flag=True, help="print the headline numbers as JSON")
 def reproduce(figure, out_dir, quality, as_json, **kwargs):
-    """Reproduce a figure of the paper: fig3, fig4, fig5, fig6, fig7, fig8 or all.
+    """Reproduce a figure of the paper: fig3, fig4, fig5, fig6, fig7, fig8 or all; or
+    force-extension (a coiled filament pulled by a trap, against Darnton & Berg 2007).
 
     Writes DIR/FIG/FIG.png and .pdf, the data (CSV, HDF5) and comparison.md (the paper's
     numbers next to ours).

@@ -137,6 +137,18 @@ def front_speed(barrier: float, wall_stiffness: float, friction: float, de: floa
     return math.sqrt(wall_stiffness * k / 2.0) * (2.0 * a - 1.0) / friction
 
 
+def spinodal_drive(barrier: float, de: float = 0.0) -> float:
+    """The largest stress drive g [pN] (−∂E_rod/∂φ per length) that a joint in form m
+    withstands without a wall or noise: past it the well of form m has no minimum left.
+    With k = 64·barrier and a = 1/2 + 6 de/k (de = ε_{m+1} − ε_m), v'(x) = k x(x − 1)(x − a),
+    so g* = k max_{0≤x≤a} x(1 − x)(a − x), at x* = [(1 + a) − √(1 − a + a²)]/3
+    (3.08·barrier for equal wells)."""
+    k = 64.0 * barrier
+    a = 0.5 + 6.0 * de / k
+    x = ((1.0 + a) - math.sqrt(1.0 - a + a * a)) / 3.0
+    return k * x * (1.0 - x) * (a - x)
+
+
 def wall_width(barrier: float, wall_stiffness: float) -> float:
     """Width √(2D/k) [µm] of a wall's tanh profile (k = 64·barrier)."""
     return math.sqrt(2.0 * wall_stiffness / (64.0 * barrier))

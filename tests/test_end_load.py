@@ -126,3 +126,17 @@ def test_cli_end_load_flags(cli):
     assert res["end_force_mean"] == 0.5 and res["extension_mean"] > 0
     code, _, err = cli("simulate", "--time", 0.004, "--pull-rate", 1.0)
     assert_one_line_error(code, err, "pull_rate")
+
+
+def test_a_trap_continued_from_a_state_at_a_later_time_starts_at_its_free_end():
+    """from_state(..., t=t0) with a moving trap: its centre is at the state's free end at t0
+    (the load starts at the constant part F0, not at F0 + k v t0), so a protocol in stages
+    (pull out, then back) continues the load without a jump."""
+    F0, k, v, t0 = 0.3, 20.0, 0.1, 5.0
+    pre, _ = _run(EndLoad(force=F0), 0.05)
+    sim = Simulator.from_state(pre.state(), SHORT, Motor(0.0), t=t0,
+                               end_load=EndLoad(force=F0, pull_rate=v, trap_stiffness=k),
+                               solver=SolverOptions(rtol=1e-8, atol=1e-10, frame="lab"))
+    tr = sim.run(t0 + 0.01, save_every=0.005, progress=False)
+    assert tr.end_force[0] == pytest.approx(F0, abs=1e-9)
+    assert 0 < tr.end_force[-1] - F0 < k * v * 0.01

@@ -180,3 +180,29 @@ def test_bad_schedules_are_refused():
             pull_cycle(SHORT, None, trap_stiffness=1.0, schedule=sched)
     with pytest.raises(ParameterError, match="trap_stiffness"):
         pull_cycle(SHORT, None, trap_stiffness=0.0, schedule=[(1.0, 1.0)])
+
+
+@pytest.mark.slow
+@pytest.mark.ci
+def test_reproduce_force_extension_quick(tmp_path, cli):
+    """The target from the CLI: figure, data, comparison with Darnton & Berg (2007)'s rows;
+    the transformation force from coiled inside their 3–5 pN at the slower rate (their
+    abstract; the landscape is the package default, not fitted)."""
+    import json
+
+    from flagellum.reproduce.common import pixel_variance
+
+    code, out, err = cli("reproduce", "force-extension", "--out", tmp_path, "--json")
+    assert code == 0, err
+    res = json.loads(out)
+    d = tmp_path / "force-extension"
+    assert pixel_variance(d / "force-extension.png") > 2e-3 and (d / "force-extension.pdf").exists()
+    assert (d / "curves.csv").read_text(encoding="utf-8").startswith("form,rate [µm/s],t [s],force [pN]")
+    assert (d / "force-extension.h5").exists()
+    text = (d / "comparison.md").read_text()
+    for row in ("transformation force from coiled", "rate dependence", "from normal",
+                "reverse transformation"):
+        assert row in text
+    assert 3.0 < res["force_up_slowest"] < 5.0
+    assert res["force_up"] == sorted(res["force_up"])  # faster pulls transform later
+    assert all(a > 0 for a in res["loop_area"])

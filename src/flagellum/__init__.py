@@ -22,7 +22,7 @@ from ._version import __version__
 _EXPORTS = {
     "simulate": "api",
     "Params": "params", "Filament": "params", "Fluid": "params", "Friction": "params",
-    "EndLoad": "params", "Polymorphism": "params",
+    "EndLoad": "params", "Polymorphism": "params", "pull_cycle": "pulling",
     "Motor": "motor", "Boundary": "motor",
     "Simulator": "simulator", "SolverOptions": "simulator",
     "Trajectory": "trajectory", "open_trajectory": "trajectory",

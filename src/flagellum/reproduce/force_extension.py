@@ -28,7 +28,7 @@ LENGTH = 4.0  #: filament length [µm]
 TRAP = 10.0  #: trap stiffness [pN/µm]
 TRAVEL = 3.0  #: how far the trap's centre moves out (and back) [µm]
 FORMS = ("coiled", "normal")
-RATES = {"quick": (2.0, 4.0, 8.0), "full": (0.25, 0.5, 1.0, 2.0, 4.0, 8.0)}  #: [µm/s]
+RATES = {"quick": (2.0, 8.0), "full": (0.25, 0.5, 1.0, 2.0, 4.0, 8.0)}  #: [µm/s]
 #: Darnton & Berg (2007), abstract: thresholds from the coiled and from the normal form [pN]
 DB_COILED, DB_NORMAL = (3.0, 5.0), (4.0, 7.0)
 UNITS = {"rate": "µm/s", "t": "s", "force": "pN", "extension": "µm", "force_up": "pN",

@@ -117,6 +117,8 @@ def plot(data: ForceExtensionData, res: dict, out_dir: Path) -> list:
     a.legend(fontsize=7)
     b.semilogx(res["rates"], res["force_up"], "o-", label="ours: transformation force (way up)")
     b.axhspan(*DB_COILED, color="tab:red", alpha=0.12, label="Darnton & Berg 2007 (coiled)")
+    b.set_xticks(res["rates"], [f"{v:g}" for v in res["rates"]])
+    b.minorticks_off()
     b.set_xlabel("pulling rate v [µm/s]")
     b.set_ylabel("transformation force [pN]")
     b.set_title(f"(b) rate dependence: dF/d ln v = {res['slope_force_up_per_ln_rate']:.2f} pN", fontsize=9)
@@ -180,6 +182,7 @@ def headline(res: dict, quality: str, seconds: float, files: list) -> dict:
 
 
 def run(out_dir: Path, quality: str, cache=None) -> dict:
+    """Compute, analyse, plot and write the target into ``out_dir``; returns :func:`headline`."""
     timer = Timer()
     out_dir.mkdir(parents=True, exist_ok=True)
     data = compute(quality, cache)

@@ -117,6 +117,12 @@ PARAMETER_ATTRS: dict[str, tuple[str | None, str]] = {
     "motor_speed": ("rad/s", "speed clamp: imposed motor speed relative to the body"),
     "motor_law": (None, "torque-speed law of the motor (e-coli or a table file)"),
     "ramp_time": ("s", "ramp time of the motor torque"),
+    "reversal_times": ("s", "times at which the motor reverses (CCW <-> CW)"),
+    "reversal_rates": ("1/s", "rates CCW->CW, CW->CCW of random motor reversals"),
+    "reversal_seed": ("1", "seed of the random reversal times"),
+    "body_radius": ("um", "(equatorial) radius of the cell body"),
+    "body_aspect": ("1", "polar / equatorial semi-axis of the cell body"),
+    "motor_offset": ("degree", "motor position on the cell body, angle from the rear pole"),
     "anchor": (None, "anchor of bead 0"),
     "sphere_radius": ("um", "radius of the anchoring sphere"),
     "hook": (None, "hook model"),
@@ -163,6 +169,9 @@ class Sweep:
         """Validate names and values; a range is a string (see :func:`parse_values`), a list
         or one value (an axis of length 1)."""
         rng = [(canonical_name(k), parse_values(k, v)) for k, v in (ranges or {}).items()]
+        for name, values in rng:
+            if PARAMETERS[name] is tuple and len(values) > 1:  # a grid axis of lists has no coordinate
+                raise ParameterError(name, list(values), "one list of numbers (fixed), not a range")
         fix = [(canonical_name(k), convert(canonical_name(k), v)) for k, v in (fixed or {}).items()]
         names = [n for n, _ in rng + fix]
         dup = next((n for n in names if names.count(n) > 1), None)
@@ -255,9 +264,14 @@ class PointRun:
         params = Params.from_flat({k: v[k] for k in MODEL_PARAMETERS if k in v})
         params.gammas  # noqa: B018 -- resolves (and so validates) the friction model
         motor = Motor.from_flags(v.get("torque"), v.get("motor_speed"), v.get("motor_law"),
-                                 ramp_time=v.get("ramp_time", 0.0))
+                                 ramp_time=v.get("ramp_time", 0.0),
+                                 **{key: v[name] for key, name in (("reversals", "reversal_times"),
+                                                                   ("reversal_rates", "reversal_rates"),
+                                                                   ("reversal_seed", "reversal_seed"))
+                                    if name in v})
         boundary = Boundary.from_flags(**{k: v[k] for k in ("anchor", "sphere_radius", "hook",
-                                                            "hook_stiffness") if k in v})
+                                                            "hook_stiffness", "body_radius",
+                                                            "body_aspect", "motor_offset") if k in v})
         thermal = bool(v.get("thermal", "kT" in v))
         solver = {"method": v.get("method", "implicit" if thermal else "cvode"),
                   **({"rtol": v["rtol"]} if "rtol" in v else {}),
@@ -271,7 +285,7 @@ class PointRun:
                                                                 ("refresh", "hydro_refresh"))
                                  if name in v})
         solver, seed = SolverOptions(**solver), v.get("seed", 0)
-        check_setup(params, solver, hydro, thermal, seed)  # what Simulator would refuse
+        check_setup(params, solver, hydro, thermal, seed, boundary)  # what Simulator would refuse
         plan_run(0.0, t_end, save_every)
         return cls(params, motor, boundary, solver, thermal, seed, t_end, save_every,
                    v.get("average_from"), hydro)

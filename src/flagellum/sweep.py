@@ -62,7 +62,8 @@ VARIABLES: dict[str, str] = {
 }
 #: variables that files of older versions lack (filled in on resume)
 _OPTIONAL = {"fallback", "swimming_speed", "torque_mean", "motor_speed_mean", "body_velocity",
-             "body_speed", "body_rotation_rate", "wobble_angle_deg"}
+             "body_speed", "body_rotation_rate", "wobble_angle_deg", "path_radius", "path_pitch",
+             "path_period", "path_axis_x", "path_axis_y", "path_axis_z"}
 #: what a fallback may change: solver settings only (the physics of a point stays fixed)
 FALLBACK_PARAMETERS = ("method", "rtol", "dt")
 _FILL = {"f8": math.nan, "i8": -1, "str": ""}
@@ -89,6 +90,12 @@ VARIABLE_ATTRS: dict[str, tuple[str | None, str]] = {
     "body_speed": ("um/s", "mean speed of the body along its (helical) path"),
     "body_rotation_rate": ("rad/s", "mean rotation rate of the body about its own axis"),
     "wobble_angle_deg": ("degree", "mean angle between the body axis and the mean swimming direction"),
+    "path_radius": ("um", "radius of the helix fitted to the path of the body's centre"),
+    "path_pitch": ("um", "pitch (advance per turn) of the helical path of the body"),
+    "path_period": ("s", "period of one turn of the helical path of the body"),
+    "path_axis_x": ("1", "x component of the unit axis of the helical path"),
+    "path_axis_y": ("1", "y component of the unit axis of the helical path"),
+    "path_axis_z": ("1", "z component of the unit axis of the helical path"),
     "regime": (None, "regime of the run (flagellum.analysis.regimes)"),
     "steps": ("1", "integrator steps"),
     "wall_seconds": ("s", "wall-clock time of the point in its worker"),

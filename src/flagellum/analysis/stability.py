@@ -24,6 +24,14 @@ Method
   swimmer (body sphere on bead 0) all three translations, ṙ_i − ṙ_0 (:data:`DRIFT`): its
   relative equilibrium is a fixed point in the frame moving with bead 0 and rotating about
   the e_z axis through it.
+* **Cell body** (a body free in 3D with the motor on its surface, ``Boundary.body_radius``):
+  its orientation φ joins the reduced coordinates; the whole cell may turn about any axis
+  and its body spin about the motor axis m (a symmetry of a sphere, and of a spheroid with
+  the motor at a pole; off the pole the steady swimmer is periodic: refused). The fixed
+  point is one of f − σ S (S the spin generator, σ its rate, an extra Newton unknown with
+  the phase condition Ŝ·δξ = 0), and the generators of the rotations about e_z, e_x, e_y
+  and of the spin span an invariant subspace of J (eigenvalues 0, 0, ±iΩ) removed from the
+  spectrum like the rotational zero mode (:func:`_symmetry_basis`).
 * **Relative equilibrium.** Newton on (ξ, Ω) with the bordered Jacobian
   [[J, −G], [Ĝᵀ, 0]]: the phase condition Ĝ·δξ = 0 fixes the rotational symmetry and Ω is
   the extra unknown. J is a dense central finite-difference Jacobian (≈ 4N unknowns). The

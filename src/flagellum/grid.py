@@ -26,7 +26,9 @@ MODEL_PARAMETERS: dict[str, type] = {
 }
 PARAMETERS: dict[str, type] = {
     **MODEL_PARAMETERS, "torque": float, "motor_speed": float, "motor_law": str, "ramp_time": float,
+    "reversal_times": tuple, "reversal_rates": tuple, "reversal_seed": int,
     "anchor": str, "sphere_radius": float, "hook": str, "hook_stiffness": float,
+    "body_radius": float, "body_aspect": float, "motor_offset": float,
     "hydrodynamics": str, "hydro_refresh": float,
     "time": float, "save_every": float, "average_from": float,
     "thermal": bool, "seed": int, "method": str, "rtol": float, "dt": float,
@@ -49,6 +51,11 @@ def convert(name: str, value: Any):
     typ = PARAMETERS[name]
     text = value.strip() if isinstance(value, str) else value
     try:
+        if typ is tuple:  # a list of numbers is one value (e.g. the reversal times of a run)
+            items = text.split(",") if isinstance(text, str) else text
+            if isinstance(items, (str, bool)) or not isinstance(items, (list, tuple, np.ndarray)):
+                raise ValueError
+            return tuple(convert_number(name, x) for x in items)
         if typ is str:
             if not isinstance(text, str) or not text:
                 raise ValueError
@@ -70,10 +77,23 @@ def convert(name: str, value: Any):
         if not math.isfinite(v):
             raise ValueError
         return v
-    except (ValueError, TypeError, OverflowError, InvalidOperation):
+    except (ValueError, TypeError, OverflowError, InvalidOperation, ParameterError):
         kind = {float: "a finite number", int: "an integer", str: "a non-empty string",
-                bool: "true or false"}[typ]
+                bool: "true or false", tuple: "comma-separated finite numbers"}[typ]
         raise ParameterError(name, value, kind) from None
+
+
+def convert_number(name: str, value: Any) -> float:
+    """One finite number of a list-valued parameter ``name``."""
+    if isinstance(value, bool):
+        raise ParameterError(name, value, "a finite number")
+    try:
+        v = float(value.strip() if isinstance(value, str) else value)
+    except (ValueError, TypeError, OverflowError):
+        raise ParameterError(name, value, "a finite number") from None
+    if not math.isfinite(v):
+        raise ParameterError(name, value, "a finite number")
+    return v
 
 
 def _range(name: str, text: str) -> list:
@@ -101,7 +121,10 @@ def parse_values(name: str, spec: Any) -> tuple:
     (33, (1, 2, 3))
     """
     name = canonical_name(name)
-    if isinstance(spec, str) and ":" in spec:
+    if PARAMETERS[name] is tuple:  # "a,b" or [a, b]: one list; [[a, b], [c]]: several
+        many = isinstance(spec, (list, tuple)) and any(isinstance(s, (list, tuple)) for s in spec)
+        values = [convert(name, s) for s in spec] if many else [convert(name, spec)]
+    elif isinstance(spec, str) and ":" in spec:
         values = _range(name, spec)
     elif isinstance(spec, str):
         values = [convert(name, s) for s in spec.split(",")]
@@ -115,4 +138,4 @@ def parse_values(name: str, spec: Any) -> tuple:
 
 
 __all__ = ["ALIASES", "MAX_POINTS", "MODEL_PARAMETERS", "PARAMETERS", "canonical_name", "convert",
-           "parse_values"]
+           "convert_number", "parse_values"]

@@ -62,7 +62,8 @@ VARIABLES: dict[str, str] = {
 }
 #: variables that files of older versions lack (filled in on resume)
 _OPTIONAL = {"fallback", "swimming_speed", "torque_mean", "motor_speed_mean", "body_velocity",
-             "body_speed", "body_rotation_rate", "wobble_angle_deg"}
+             "body_speed", "body_rotation_rate", "wobble_angle_deg", "path_radius", "path_pitch",
+             "path_period", "path_axis_x", "path_axis_y", "path_axis_z"}
 #: what a fallback may change: solver settings only (the physics of a point stays fixed)
 FALLBACK_PARAMETERS = ("method", "rtol", "dt")
 _FILL = {"f8": math.nan, "i8": -1, "str": ""}
@@ -89,6 +90,12 @@ VARIABLE_ATTRS: dict[str, tuple[str | None, str]] = {
     "body_speed": ("um/s", "mean speed of the body along its (helical) path"),
     "body_rotation_rate": ("rad/s", "mean rotation rate of the body about its own axis"),
     "wobble_angle_deg": ("degree", "mean angle between the body axis and the mean swimming direction"),
+    "path_radius": ("um", "radius of the helix fitted to the path of the body's centre"),
+    "path_pitch": ("um", "pitch (advance per turn) of the helical path of the body"),
+    "path_period": ("s", "period of one turn of the helical path of the body"),
+    "path_axis_x": ("1", "x component of the unit axis of the helical path"),
+    "path_axis_y": ("1", "y component of the unit axis of the helical path"),
+    "path_axis_z": ("1", "z component of the unit axis of the helical path"),
     "regime": (None, "regime of the run (flagellum.analysis.regimes)"),
     "steps": ("1", "integrator steps"),
     "wall_seconds": ("s", "wall-clock time of the point in its worker"),
@@ -117,6 +124,12 @@ PARAMETER_ATTRS: dict[str, tuple[str | None, str]] = {
     "motor_speed": ("rad/s", "speed clamp: imposed motor speed relative to the body"),
     "motor_law": (None, "torque-speed law of the motor (e-coli or a table file)"),
     "ramp_time": ("s", "ramp time of the motor torque"),
+    "reversal_times": ("s", "times at which the motor reverses (CCW <-> CW)"),
+    "reversal_rates": ("1/s", "rates CCW->CW, CW->CCW of random motor reversals"),
+    "reversal_seed": ("1", "seed of the random reversal times"),
+    "body_radius": ("um", "(equatorial) radius of the cell body"),
+    "body_aspect": ("1", "polar / equatorial semi-axis of the cell body"),
+    "motor_offset": ("degree", "motor position on the cell body, angle from the rear pole"),
     "anchor": (None, "anchor of bead 0"),
     "sphere_radius": ("um", "radius of the anchoring sphere"),
     "hook": (None, "hook model"),
@@ -163,6 +176,9 @@ class Sweep:
         """Validate names and values; a range is a string (see :func:`parse_values`), a list
         or one value (an axis of length 1)."""
         rng = [(canonical_name(k), parse_values(k, v)) for k, v in (ranges or {}).items()]
+        for name, values in rng:
+            if PARAMETERS[name] is tuple and len(values) > 1:  # a grid axis of lists has no coordinate
+                raise ParameterError(name, list(values), "one list of numbers (fixed), not a range")
         fix = [(canonical_name(k), convert(canonical_name(k), v)) for k, v in (fixed or {}).items()]
         names = [n for n, _ in rng + fix]
         dup = next((n for n in names if names.count(n) > 1), None)
@@ -255,9 +271,14 @@ class PointRun:
         params = Params.from_flat({k: v[k] for k in MODEL_PARAMETERS if k in v})
         params.gammas  # noqa: B018 -- resolves (and so validates) the friction model
         motor = Motor.from_flags(v.get("torque"), v.get("motor_speed"), v.get("motor_law"),
-                                 ramp_time=v.get("ramp_time", 0.0))
+                                 ramp_time=v.get("ramp_time", 0.0),
+                                 **{key: v[name] for key, name in (("reversals", "reversal_times"),
+                                                                   ("reversal_rates", "reversal_rates"),
+                                                                   ("reversal_seed", "reversal_seed"))
+                                    if name in v})
         boundary = Boundary.from_flags(**{k: v[k] for k in ("anchor", "sphere_radius", "hook",
-                                                            "hook_stiffness") if k in v})
+                                                            "hook_stiffness", "body_radius",
+                                                            "body_aspect", "motor_offset") if k in v})
         thermal = bool(v.get("thermal", "kT" in v))
         solver = {"method": v.get("method", "implicit" if thermal else "cvode"),
                   **({"rtol": v["rtol"]} if "rtol" in v else {}),
@@ -271,7 +292,7 @@ class PointRun:
                                                                 ("refresh", "hydro_refresh"))
                                  if name in v})
         solver, seed = SolverOptions(**solver), v.get("seed", 0)
-        check_setup(params, solver, hydro, thermal, seed)  # what Simulator would refuse
+        check_setup(params, solver, hydro, thermal, seed, boundary)  # what Simulator would refuse
         plan_run(0.0, t_end, save_every)
         return cls(params, motor, boundary, solver, thermal, seed, t_end, save_every,
                    v.get("average_from"), hydro)

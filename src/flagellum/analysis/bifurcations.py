@@ -28,6 +28,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+import numpy as np
+
 from ..errors import ParameterError
 from ..grid import parse_values
 from ..hydro.options import Hydrodynamics
@@ -42,6 +44,11 @@ SCAN_SETTINGS = {
     "quick": {"torques": (3.0, 5.5, 0.5), "t_end": 0.3, "tol": 0.1},
     "full": {"torques": (2.5, 5.5, 0.25), "t_end": 0.8, "tol": 0.025},
 }
+#: per quality: motor speeds of the scan under a speed clamp (lo, hi, step) [rad/s] and the
+#: bisection tolerance [rad/s] (the clamped filament buckles at ω_c1 ≈ 898 rad/s and winds
+#: up above ≈ 975 rad/s, docs/motor.md)
+SPEED_SETTINGS = {"quick": {"speeds": (900.0, 1100.0, 50.0), "tol": 10.0},
+                  "full": {"speeds": (875.0, 1100.0, 25.0), "tol": 2.5}}
 #: the paper's thresholds [pN·µm] (:data:`flagellum.paper.PAPER`)
 PAPER_THRESHOLDS = {k: PAPER[k].value for k in ("M_c1", "M_c2")}
 LOWER, UPPER = "buckled", "oscillating"  #: the regimes on either side of M_c2
@@ -65,6 +72,10 @@ class RunConfig:
     samples: int = 600
     rtol: float = 1e-6
     hydrodynamics: Hydrodynamics = field(default_factory=Hydrodynamics)
+    #: "torque": the value of a call is the torque M; "speed": a speed clamp ω [rad/s] (every
+    #: run starts from the stress-free helix at the clamp; the probe's ``motor_speed`` is ω,
+    #: ``torque`` the mean torque the clamp takes)
+    drive: str = "torque"
 
     def __call__(self, torque: float, state: Any = None) -> tuple[dict, Any]:
         from ..helix import Helix
@@ -72,7 +83,10 @@ class RunConfig:
         from ..simulator import Simulator, SolverOptions, run_first_success
 
         M = float(torque)
-        if state is None and M >= self.step_from:
+        speed = check_choice("drive", self.drive, ("torque", "speed")) == "speed"
+        if speed:
+            motor, t_start = Motor(drive="speed", speed=M), 0.0
+        elif state is None and M >= self.step_from:
             motor = Motor(M, schedule=((0.0, 1.0), (self.t_step, 1.0), (self.t_step + 0.01, M)))
             t_start = self.t_step + 0.01
         else:
@@ -94,8 +108,8 @@ class RunConfig:
         tr, sim, method, frame, errors = run_first_success(make, attempts, t_total,
                                                            t_total / self.samples)
         err = errors[-1] if tr is None else None
-        probe = {"torque": M, "t_end": self.t_end, "continued": state is not None,
-                 "wall_seconds": time.perf_counter() - wall0}
+        probe = {("motor_speed" if speed else "torque"): M, "t_end": self.t_end,
+                 "continued": state is not None, "wall_seconds": time.perf_counter() - wall0}
         if err is not None:
             return {**probe, "regime": "failed", "error": " ".join(err.split())[:300]}, None
         t_from = t_total - self.window * self.t_end
@@ -105,6 +119,8 @@ class RunConfig:
                       "thrust": m.thrust_mean, "thrust_min": float(tr.thrust[sel].min()),
                       "thrust_max": float(tr.thrust[sel].max()), "swings": m.swings,
                       "centroid_offset": m.centroid_offset, "frame": frame, "solver": method})
+        if speed:
+            probe["torque"] = float(np.mean(tr.torque[sel]))
         return probe, sim.lab_state()
 
 
@@ -114,8 +130,14 @@ def _probe_task(arg) -> dict:
     return {**simulate(torque, None)[0], "direction": direction}
 
 
-def _failed(torque, direction, exc) -> dict:
-    return {"torque": float(torque), "regime": "failed", "direction": direction,
+def _key(simulate) -> str:
+    """The probes' key of the scanned drive value: ``torque``, or ``motor_speed`` for a
+    speed-clamp :class:`RunConfig`."""
+    return "motor_speed" if getattr(simulate, "drive", "torque") == "speed" else "torque"
+
+
+def _failed(torque, direction, exc, key="torque") -> dict:
+    return {key: float(torque), "regime": "failed", "direction": direction,
             "error": f"{type(exc).__name__}: {exc}"[:300]}
 
 
@@ -127,9 +149,9 @@ def _executor(workers: int):
 class _Runner:
     """Submits probe tasks, keeps every probe, reports progress and each finished probe."""
 
-    def __init__(self, submit, as_completed, workers: int, bar=None, on_probe=None):
+    def __init__(self, submit, as_completed, workers: int, bar=None, on_probe=None, key="torque"):
         self.submit, self.as_completed, self.workers = submit, as_completed, workers
-        self.bar, self.on_probe, self.probes = bar, on_probe, []
+        self.bar, self.on_probe, self.probes, self.key = bar, on_probe, [], key
 
     def start(self, fn, args: list, total: int | None = None) -> dict:
         if self.bar is not None:
@@ -144,7 +166,7 @@ class _Runner:
             try:
                 res = fut.result()
             except Exception as exc:  # noqa: BLE001 - a dead worker, not a simulation failure
-                res = (_failed(arg[1], arg[2], exc) if fn is _probe_task else
+                res = (_failed(arg[1], arg[2], exc, self.key) if fn is _probe_task else
                        {"direction": arg[2], "probes": [], "note": f"{type(exc).__name__}: {exc}"})
             out[fut] = res
             for p in res.get("probes", [res]):
@@ -160,16 +182,17 @@ class _Runner:
         return self.collect(self.start(_probe_task, [(simulate, float(m), direction) for m in torques]))
 
 
-def bracket(probes: list[dict]) -> tuple[float | None, float | None, str | None]:
-    """(last buckled, first oscillating) torques of a set of fresh runs, and a note."""
-    upper = sorted(p["torque"] for p in probes if p["regime"] == UPPER)
-    lower = sorted(p["torque"] for p in probes if p["regime"] == LOWER)
+def bracket(probes: list[dict], key: str = "torque") -> tuple[float | None, float | None, str | None]:
+    """(last buckled, first oscillating) torques (``key``: or motor speeds) of a set of
+    fresh runs, and a note."""
+    upper = sorted(p[key] for p in probes if p["regime"] == UPPER)
+    lower = sorted(p[key] for p in probes if p["regime"] == LOWER)
     if not upper:
-        return None, None, "no oscillating run (raise the torque range or --time)"
+        return None, None, "no oscillating run (raise the scan range or --time)"
     hi = upper[0]
     below = [m for m in lower if m < hi]
     if not below:
-        return None, hi, "no buckled run below the first oscillating torque (lower the torque range)"
+        return None, hi, "no buckled run below the first oscillating one (lower the scan range)"
     above = [m for m in lower if m > hi]
     note = (f"regimes not monotonic in M: buckled at {', '.join(f'{m:g}' for m in above)} above the "
             "first oscillating torque (runs too short?)") if above else None
@@ -186,9 +209,10 @@ def refine(runner: _Runner, simulate: Simulate, lo: float, hi: float, tol: float
         inner = [lo + (hi - lo) * (i + 1) / (k + 1) for i in range(k)]
         new = runner.probe(simulate, inner, "bisect")
         known = [p for p in new if p["regime"] in (LOWER, UPPER)]
-        nlo, nhi, _ = bracket([{"torque": lo, "regime": LOWER}, *known, {"torque": hi, "regime": UPPER}])
+        key = runner.key
+        nlo, nhi, _ = bracket([{key: lo, "regime": LOWER}, *known, {key: hi, "regime": UPPER}], key)
         if (nlo, nhi) == (lo, hi):
-            return lo, hi, ("refinement stopped: runs at " + ", ".join(f"{p['torque']:.4g} ({p['regime']})"
+            return lo, hi, ("refinement stopped: runs at " + ", ".join(f"{p[key]:.4g} ({p['regime']})"
                                                                    for p in new) + " decide nothing")
         lo, hi = nlo, nhi
     return lo, hi, None
@@ -199,6 +223,7 @@ def continuation(simulate: Simulate, torques, direction: str, tol: float) -> dic
     first buckled→oscillating (``up``) or oscillating→buckled (``down``) transition, each
     probe continuing from the last state on the side the sweep came from."""
     src, dst = (LOWER, UPPER) if direction == "up" else (UPPER, LOWER)
+    key = _key(simulate)
     probes, state, last_src = [], None, None
     lo = hi = src_state = None
     for M in torques:
@@ -207,9 +232,9 @@ def continuation(simulate: Simulate, torques, direction: str, tol: float) -> dic
         probes.append(p)
         state = s if p["regime"] != "failed" else state
         if p["regime"] == src:
-            last_src = (p["torque"], s)
+            last_src = (p[key], s)
         elif p["regime"] == dst and last_src is not None and lo is None:
-            (lo, hi), src_state = sorted((last_src[0], p["torque"])), last_src[1]
+            (lo, hi), src_state = sorted((last_src[0], p[key])), last_src[1]
     if lo is None:
         return {"direction": direction, "probes": probes, "M_c2": None, "uncertainty": None,
                 "bracket": None, "note": f"no {src} → {dst} transition along the sweep"}
@@ -268,21 +293,25 @@ def critical(params: Params, boundary: Boundary, xtol: float = 1e-3,
 
 
 # -- the whole analysis -------------------------------------------------------------------
-def scan_torques(quality: str = "quick", torque_range: str | None = None) -> tuple[float, ...]:
-    """Torques of the coarse scan: ``lo:hi`` (the quality's step) or ``lo:hi:step``."""
+def scan_torques(quality: str = "quick", torque_range: str | None = None,
+                 drive: str = "torque") -> tuple[float, ...]:
+    """Torques of the coarse scan: ``lo:hi`` (the quality's step) or ``lo:hi:step``; with
+    ``drive="speed"`` the motor speeds of a speed clamp (``torque_range`` then in rad/s)."""
     check_choice("quality", quality, tuple(SCAN_SETTINGS))
-    lo, hi, step = SCAN_SETTINGS[quality]["torques"]
+    speed = check_choice("drive", drive, ("torque", "speed")) == "speed"
+    lo, hi, step = SPEED_SETTINGS[quality]["speeds"] if speed else SCAN_SETTINGS[quality]["torques"]
+    name, unit, what = ("speed_range", "rad/s", "speeds") if speed else ("torque_range", "pN·µm", "torques")
     text = torque_range if torque_range is not None else f"{lo}:{hi}:{step}"
     parts = str(text).split(":")
     if len(parts) == 2:
         text = f"{text}:{step}"
     elif len(parts) != 3:
-        raise ParameterError("torque_range", torque_range, "lo:hi or lo:hi:step [pN·µm]")
-    values = sorted(parse_values("torque", text))
+        raise ParameterError(name, torque_range, f"lo:hi or lo:hi:step [{unit}]")
+    values = sorted(parse_values("motor_speed" if speed else "torque", text))
     if len(values) < 2:
-        raise ParameterError("torque_range", torque_range, "at least two torques (lo < hi)")
+        raise ParameterError(name, torque_range, f"at least two {what} (lo < hi)")
     for m in values:
-        check_range("torque", m, 0.0, 1e3)
+        check_range("motor_speed" if speed else "torque", m, 0.0, 1e5 if speed else 1e3)
     return tuple(values)
 
 
@@ -298,35 +327,37 @@ def bifurcations(params: Params | None = None, boundary: Boundary | None = None,
     ``simulate`` replaces the simulation (tests); ``on_probe(probes)`` is called after
     every finished probe (used to write partial results); ``hydrodynamics`` the filament's
     mobility in the runs and in the linear stability (default local RFT). ``drive="speed"``
-    gives the critical rotation rate ω_c1 of a speed clamp instead of M_c1 (:func:`critical`);
-    the M_c2 scan and the confirmation runs are torque-driven, so they need ``mc2=False``
-    and no ``confirm_mc1`` then.
+    gives the thresholds of a speed clamp instead (``torque_range`` then holds motor speeds
+    [rad/s], default :data:`SPEED_SETTINGS`): the critical rotation rate ω_c1 (:func:`critical`),
+    the confirmation runs at ω_c1(1 ∓ δ) and ω_c2 (``omega_c2``…) from the scan of clamped
+    runs (each from the stress-free helix at the clamp); the probes then carry
+    ``motor_speed`` (the clamp) and ``torque`` (the mean torque it took).
     """
     wall0 = time.perf_counter()
     params, boundary = params or Params(), boundary or Boundary()
     hydrodynamics = hydrodynamics or Hydrodynamics()
     q = SCAN_SETTINGS[check_choice("quality", quality, tuple(SCAN_SETTINGS))]
-    torques = scan_torques(quality, torque_range)
+    speed = check_choice("drive", drive, ("torque", "speed")) == "speed"
+    torques = scan_torques(quality, torque_range, drive)
     t_end = positive("t_end", q["t_end"] if t_end is None else t_end, 100.0)
-    tol = positive("tol", q["tol"] if tol is None else tol, 10.0)
+    default_tol = SPEED_SETTINGS[quality]["tol"] if speed else q["tol"]
+    tol = positive("tol", default_tol if tol is None else tol, 1e3 if speed else 10.0)
     check_workers("workers", workers)
     if confirm_mc1 is not None:
         confirm_mc1 = check_range("confirm_mc1", confirm_mc1, 0.0, 0.9)
-    if check_choice("drive", drive, ("torque", "speed")) == "speed" and (mc2 or confirm_mc1 is not None):
-        raise ParameterError("drive", "speed", "only with mc1_only (--mc1-only) and without "
-                             "confirm_mc1: the M_c2 scan and the confirmation runs are torque-driven")
-    simulate = simulate or RunConfig(params, boundary, t_end, hydrodynamics=hydrodynamics)
+    simulate = simulate or RunConfig(params, boundary, t_end, hydrodynamics=hydrodynamics, drive=drive)
+    key, c1, c2 = ("motor_speed", "omega_c1", "omega_c2") if speed else ("torque", "M_c1", "M_c2")
 
     out = {"quality": quality, "sphere_radius": boundary.sphere_radius, "t_end": t_end, "tol": tol,
-           "scan_torques": list(torques), "paper": PAPER_THRESHOLDS,
-           "hydrodynamics": hydrodynamics.model}
+           ("scan_speeds" if speed else "scan_torques"): list(torques), "paper": PAPER_THRESHOLDS,
+           "hydrodynamics": hydrodynamics.model, "drive": drive}
     from .._progress import progress_bar
 
     n_chain = len(torques) if hysteresis and mc2 else 0
     workers = min(workers, len(torques) + 2)
     with _executor(workers) as (submit, as_completed), \
             progress_bar(total=0, unit="run", desc="bifurcations", disable=not progress) as bar:
-        runner = _Runner(submit, as_completed, workers, bar, on_probe)
+        runner = _Runner(submit, as_completed, workers, bar, on_probe, key)
         # independent runs go to the pool first (long chains first); M_c1 meanwhile here
         chains = runner.start(_chain_task, [(simulate, torques, "up", tol), (simulate, torques[::-1], "down", tol)],
                               total=2 * n_chain) if n_chain else {}
@@ -336,36 +367,36 @@ def bifurcations(params: Params | None = None, boundary: Boundary | None = None,
         out["M_c1_method" if drive == "torque" else "omega_c1_method"] = (
             "linear stability: root of λ(M) (uncertainty = root tolerance)" if drive == "torque"
             else "linear stability of the speed clamp: root of λ(ω) (uncertainty = root tolerance)")
-        if confirm_mc1 is not None and out["M_c1"] is not None:
-            below, above = runner.probe(simulate, [out["M_c1"] * (1 + s * confirm_mc1) for s in (-1, 1)], "confirm")
-            out["M_c1_confirmed"] = below["regime"] == "aligned" and above["regime"] in (LOWER, UPPER)
+        if confirm_mc1 is not None and out[c1] is not None:
+            below, above = runner.probe(simulate, [out[c1] * (1 + s * confirm_mc1) for s in (-1, 1)], "confirm")
+            out[f"{c1}_confirmed"] = below["regime"] == "aligned" and above["regime"] in (LOWER, UPPER)
         first = runner.collect(scan)
         if mc2:
-            lo, hi, note = bracket(first)
+            lo, hi, note = bracket(first, key)
             if lo is not None:
                 lo, hi, note2 = refine(runner, simulate, lo, hi, tol)
                 note = "; ".join(n for n in (note, note2) if n) or None
-                out.update({"M_c2": 0.5 * (lo + hi), "M_c2_uncertainty": 0.5 * (hi - lo),
-                            "M_c2_bracket": [lo, hi]})
+                out.update({c2: 0.5 * (lo + hi), f"{c2}_uncertainty": 0.5 * (hi - lo),
+                            f"{c2}_bracket": [lo, hi]})
             else:
-                out.update({"M_c2": None, "M_c2_uncertainty": None, "M_c2_bracket": None})
+                out.update({c2: None, f"{c2}_uncertainty": None, f"{c2}_bracket": None})
             if note:
-                out["M_c2_note"] = note
+                out[f"{c2}_note"] = note
             for res in runner.collect(chains, count=lambda r: len(r.get("probes", []))):
                 d = res["direction"]
-                out[f"M_c2_{d}"], out[f"M_c2_{d}_uncertainty"] = res.get("M_c2"), res.get("uncertainty")
+                out[f"{c2}_{d}"], out[f"{c2}_{d}_uncertainty"] = res.get("M_c2"), res.get("uncertainty")
                 if res.get("note"):
-                    out[f"M_c2_{d}_note"] = res["note"]
+                    out[f"{c2}_{d}_note"] = res["note"]
             if n_chain:
-                up, down = out.get("M_c2_up"), out.get("M_c2_down")
+                up, down = out.get(f"{c2}_up"), out.get(f"{c2}_down")
                 out["hysteresis"] = (None if up is None or down is None else
-                                     abs(up - down) > out["M_c2_up_uncertainty"] + out["M_c2_down_uncertainty"])
+                                     abs(up - down) > out[f"{c2}_up_uncertainty"] + out[f"{c2}_down_uncertainty"])
     order = {"confirm": 0, "scan": 1, "bisect": 1, "up": 2, "down": 3}
     out["probes"] = sorted(runner.probes, key=lambda p: (order.get(p["direction"], 4),
-                                                          p["torque"] if order.get(p["direction"]) in (0, 1) else 0))
+                                                          p.get(key, 0.0) if order.get(p["direction"]) in (0, 1) else 0))
     out["wall_seconds"] = time.perf_counter() - wall0
     return out
 
 
-__all__ = ["SCAN_SETTINGS", "RunConfig", "bifurcations", "bracket", "continuation", "critical",
+__all__ = ["SCAN_SETTINGS", "SPEED_SETTINGS", "RunConfig", "bifurcations", "bracket", "continuation", "critical",
            "refine", "scan_torques"]

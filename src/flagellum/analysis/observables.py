@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -94,6 +95,15 @@ class Summary:
     body_speed: float = math.nan
     body_rotation_rate: float = math.nan
     wobble_angle_deg: float = math.nan
+    #: the helical path of the body's centre (:func:`fit_helical_path`): radius [µm], pitch
+    #: (advance per turn) [µm], period of one turn [s] and the unit axis (NaN when the body
+    #: does not move or its path has no turn)
+    path_radius: float = math.nan
+    path_pitch: float = math.nan
+    path_period: float = math.nan
+    path_axis_x: float = math.nan
+    path_axis_y: float = math.nan
+    path_axis_z: float = math.nan
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -134,11 +144,16 @@ def body_motion(t, position, axis, angular_velocity) -> dict:
     velocity of its centre (the net speed along the mean swimming direction V̄/|V̄|),
     ``body_speed`` = mean |Δx/Δt| between records (the speed along its helical path),
     ``body_rotation_rate`` = mean Ω·axis, ``wobble_angle_deg`` = mean angle between the axis
-    and V̄/|V̄| (NaN when V̄ = 0)."""
+    and V̄/|V̄| (NaN when V̄ = 0), and the helix fitted to the path (``path_*``,
+    :func:`fit_helical_path`)."""
     out = dict(body_velocity=math.nan, body_speed=math.nan, body_rotation_rate=math.nan,
                wobble_angle_deg=math.nan)
     if len(t) < 2 or not np.all(np.isfinite(position)):
         return out
+    path = fit_helical_path(t, position)
+    if path.radius > 0:
+        out.update(path_radius=path.radius, path_pitch=path.pitch, path_period=path.period,
+                   **{f"path_axis_{c}": float(path.axis[k]) for k, c in enumerate("xyz")})
     v = np.polyfit(t - t[0], position, 1)[0]
     speed = float(np.linalg.norm(v))
     steps = np.linalg.norm(np.diff(position, axis=0), axis=1) / np.diff(t)
@@ -148,6 +163,74 @@ def body_motion(t, position, axis, angular_velocity) -> dict:
         cos = np.clip(axis @ (v / speed), -1.0, 1.0)
         out["wobble_angle_deg"] = float(np.degrees(np.arccos(cos)).mean())
     return out
+
+
+class HelicalPath(NamedTuple):
+    """A path fitted by a circular helix x(t) = c + v t â + R (cos ωt e1 + sin ωt e2)
+    (:func:`fit_helical_path`)."""
+
+    radius: float  #: R [µm]
+    pitch: float  #: axial advance per turn, |v|·period [µm]
+    axis: np.ndarray  #: unit axis â, along the net motion
+    period: float  #: 2π/ω [s]
+    axial_speed: float  #: |v| [µm/s]
+    handedness: int  #: +1 right-handed (counter-clockwise seen from the tip of â), −1 left, 0 none
+    residual: float  #: rms distance of the path from the fitted helix [µm]
+
+
+def _helix_lsq(t: np.ndarray, x: np.ndarray, omega: float):
+    """Least-squares c, v, A, B of x ≈ c + v t + A cos ωt + B sin ωt and the residual sum."""
+    basis = np.column_stack([np.ones_like(t), t, np.cos(omega * t), np.sin(omega * t)])
+    coef, *_ = np.linalg.lstsq(basis, x, rcond=None)
+    return coef, float(np.sum((basis @ coef - x) ** 2))
+
+
+def fit_helical_path(t, position) -> HelicalPath:
+    """Fit the path ``position`` (n, 3) at times ``t`` by a circular helix.
+
+    The model x(t) = c + v t + A cos ωt + B sin ωt is linear for a given ω; ω starts at
+    the peak of the power spectrum of the detrended path (zero-padded, resampled onto an
+    even grid) and is refined by minimizing the residual within one frequency bin. The axis
+    is v/|v|; the radius the rms of A and B across it, R = √((|A⊥|² + |B⊥|²)/2); the pitch
+    |v|·2π/ω. A straight path (no oscillation above 1e-12 of its length) has R = 0 and NaN
+    period and pitch. Needs at least 8 records spanning more than one turn for a period.
+    """
+    from scipy.optimize import minimize_scalar
+
+    t = np.asarray(t, float)
+    x = np.asarray(position, float)
+    nan = math.nan
+    if len(t) < 8 or x.shape != (len(t), 3) or not np.all(np.isfinite(x)):
+        return HelicalPath(nan, nan, np.full(3, nan), nan, nan, 0, nan)
+    t = t - t[0]
+    span = t[-1]
+    line = np.polyfit(t, x, 1)
+    v = line[0]
+    speed = float(np.linalg.norm(v))
+    axis = v / speed if speed > 0 else np.full(3, nan)
+    rest = x - (line[1] + np.outer(t, v))
+    scale = max(float(np.abs(x - x[0]).max()), 1e-300)
+    if float(np.abs(rest).max()) <= 1e-12 * scale:
+        return HelicalPath(0.0, nan, axis, nan, speed, 0, float(np.sqrt(np.mean(np.sum(rest ** 2, 1)))))
+    grid = np.linspace(0.0, span, len(t))
+    even = np.column_stack([np.interp(grid, t, rest[:, k]) for k in range(3)])
+    pad = 8 * len(grid)
+    power = np.sum(np.abs(np.fft.rfft(even - even.mean(0), n=pad, axis=0)) ** 2, axis=1)
+    k = 1 + int(np.argmax(power[1:]))
+    dw = 2 * math.pi / (pad * (grid[1] - grid[0]))
+    w0 = k * dw
+    res = minimize_scalar(lambda w: _helix_lsq(t, x, w)[1], bounds=(max(w0 - dw, 0.5 * dw), w0 + dw),
+                          method="bounded", options={"xatol": 1e-12 * w0})
+    omega = float(res.x)
+    coef, ss = _helix_lsq(t, x, omega)
+    v, a, b = coef[1], coef[2], coef[3]
+    speed = float(np.linalg.norm(v))
+    axis = v / speed if speed > 1e-300 else np.cross(a, b) / np.linalg.norm(np.cross(a, b))
+    a_p, b_p = a - (a @ axis) * axis, b - (b @ axis) * axis
+    radius = math.sqrt(0.5 * (a_p @ a_p + b_p @ b_p))
+    period = 2 * math.pi / omega
+    hand = int(np.sign(np.cross(a_p, b_p) @ axis))
+    return HelicalPath(radius, speed * period, axis, period, speed, hand, math.sqrt(ss / len(t)))
 
 
 def _mean(x, sel) -> float:

@@ -24,6 +24,14 @@ Method
   swimmer (body sphere on bead 0) all three translations, ṙ_i − ṙ_0 (:data:`DRIFT`): its
   relative equilibrium is a fixed point in the frame moving with bead 0 and rotating about
   the e_z axis through it.
+* **Cell body** (a body free in 3D with the motor on its surface, ``Boundary.body_radius``):
+  its orientation φ joins the reduced coordinates; the whole cell may turn about any axis
+  and its body spin about the motor axis m (a symmetry of a sphere, and of a spheroid with
+  the motor at a pole; off the pole the steady swimmer is periodic: refused). The fixed
+  point is one of f − σ S (S the spin generator, σ its rate, an extra Newton unknown with
+  the phase condition Ŝ·δξ = 0), and the generators of the rotations about e_z, e_x, e_y
+  and of the spin span an invariant subspace of J (eigenvalues 0, 0, ±iΩ) removed from the
+  spectrum like the rotational zero mode (:func:`_symmetry_basis`).
 * **Relative equilibrium.** Newton on (ξ, Ω) with the bordered Jacobian
   [[J, −G], [Ĝᵀ, 0]]: the phase condition Ĝ·δξ = 0 fixes the rotational symmetry and Ω is
   the extra unknown. J is a dense central finite-difference Jacobian (≈ 4N unknowns). The
@@ -61,6 +69,7 @@ import scipy.linalg as sla
 from scipy.optimize import brentq
 
 from ..errors import ParameterError, SimulationError
+from ..hydro.body import body_resistance, rotvec_matrix, rotvec_rate
 from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
 from ..params import Params, check_range, check_real
@@ -116,11 +125,18 @@ class RelativeEquilibrium:
     iterations: int
     hydrodynamics: Hydrodynamics = Hydrodynamics()
     motor: Motor | None = None
+    #: a cell body's spin rate σ about its motor axis in the co-rotating frame [rad/s] (the
+    #: body turns at Ω e_z + σ m in the lab); 0 without a cell body
+    spin: float = 0.0
+    #: a cell body's motor speed relative to the body [rad/s] (NaN without a cell body)
+    cell_motor_speed: float = math.nan
 
     @property
     def motor_speed(self) -> float:
         """Motor speed relative to the body [rad/s]: Ω, plus M/(8πηa³) for a free swimmer
-        whose body counter-rotates (docs/motor.md)."""
+        whose body counter-rotates (docs/motor.md); a cell body's from the kernel."""
+        if self.boundary.is_cell:
+            return self.cell_motor_speed
         return _relative_speed(self.params, self.boundary, self.torque, self.omega)
 
     def model(self) -> RodModel:
@@ -205,11 +221,15 @@ class _Reduced:
     free swimmer): the rigid translations are quotiented out.
     """
 
-    def __init__(self, model: RodModel, y: np.ndarray):
+    def __init__(self, model: RodModel, y: np.ndarray, spin: float = 0.0):
         self.model = model
         n = model.n
-        self.idx = np.array([6] + [3 + 4 * i + k for i in range(1, n + 1) for k in range(4)])
-        comp = (self.idx - 3) % 4  # 0, 1, 2: x, y, z of a bead; 3: an angle
+        self.spin = float(spin)  #: σ: the body's spin about its motor axis (cell, :func:`_cell_symmetric`)
+        idx = [6] + [3 + 4 * i + k for i in range(1, n + 1) for k in range(4)]
+        if model.cell:  # the body's orientation φ: the state's last three values
+            idx += [model.state_size - 3 + k for k in range(3)]
+        self.idx = np.array(idx)
+        comp = np.where(self.idx < 3 + 4 * (n + 1), (self.idx - 3) % 4, 3)  # 0–2: x, y, z of a bead
         # (entry of idx, component of bead 0's velocity subtracted from it)
         self.drift = [(j, int(c)) for j, c in enumerate(comp) if c in DRIFT[model.boundary.anchor]]
         self.n_u = 0 if model.boundary.hook == "clamped" else 2
@@ -240,11 +260,55 @@ class _Reduced:
 
     def field(self, y: np.ndarray, omega: float) -> np.ndarray:
         self.model.set_omega_frame(omega)
-        return self.reduce(self.model.rhs(0.0, y))
+        f = self.reduce(self.model.rhs(0.0, y))
+        if self.spin:
+            f -= self.spin * self.spin_generator(y)
+        return f
 
     def generator(self, y: np.ndarray) -> np.ndarray:
         """Reduced G(y) = f(y; 0) − f(y; 1): rotation of the whole state about e_z."""
         return self.field(y, 0.0) - self.field(y, 1.0)
+
+    def rotation(self, y: np.ndarray, axis) -> np.ndarray:
+        """Reduced generator of a rigid rotation of the whole state about ``axis`` (unit):
+        δr_i = e × r_i, δu0 = e × u0, δθ_i = e·t_i − s_i·(e × t_i) (the material frames turn
+        with the rod; s the charts' spin connection, as in the kernels' θ̇), δφ = J⁻¹(φ) e."""
+        e = np.asarray(axis, float)
+        fr = self.model.frames(y)
+        g = np.zeros_like(y)
+        g[:3] = np.cross(e, y[:3])
+        beads = y[3: 3 + 4 * (self.model.n + 1)].reshape(-1, 4)
+        gb = g[3: 3 + 4 * (self.model.n + 1)].reshape(-1, 4)
+        gb[:, :3] = np.cross(e, beads[:, :3])
+        gb[:, 3] = fr.tangents @ e - np.einsum("ij,ij->i", fr.spin, np.cross(e, fr.tangents))
+        gb[0, 3] = 0.0
+        g[6] = gb[0, 3] = fr.tangents[0] @ e - fr.spin[0] @ np.cross(e, fr.tangents[0])
+        if self.model.cell:
+            g[-3:] = rotvec_rate(*y[-3:], *e)
+        return self.reduce(g)
+
+    def spin_generator(self, y: np.ndarray) -> np.ndarray:
+        """Reduced generator of the cell body's spin about its motor axis m through the motor
+        point: only φ changes (δφ = J⁻¹(φ) m), which is a symmetry of a sphere (any motor
+        position) or of a spheroid with the motor at a pole (:func:`_cell_symmetric`)."""
+        g = np.zeros_like(y)
+        g[-3:] = rotvec_rate(*y[-3:], *self.motor_axis(y))
+        return self.reduce(g)
+
+    @staticmethod
+    def motor_axis(y: np.ndarray) -> np.ndarray:
+        """The cell body's motor axis m = Q e_z (body-fixed m is e_z, :mod:`flagellum.hydro.body`)."""
+        return rotvec_matrix(y[-3:])[:, 2]
+
+    def symmetries(self, y: np.ndarray) -> np.ndarray:
+        """(k, size) reduced generators of the continuous symmetries left after the
+        translations: the rotation about e_z; for a cell body also its spin about the motor
+        axis and the rotations about e_x and e_y (the whole cell turns freely in 3D)."""
+        gens = [self.generator(y)]
+        if self.model.cell:
+            gens += [self.spin_generator(y), self.rotation(y, (1.0, 0.0, 0.0)),
+                     self.rotation(y, (0.0, 1.0, 0.0))]
+        return np.array(gens)
 
     def jacobian(self, omega: float, step: float = FD_STEP) -> np.ndarray:
         """Central-difference ∂(reduced f)/∂ξ at the base state."""
@@ -265,6 +329,17 @@ class _Reduced:
 
 
 # -- relative equilibrium ------------------------------------------------------------------
+def _cell_symmetric(boundary: Boundary) -> None:
+    """A cell body's steady swimming is a relative equilibrium (the analysis here) when the
+    body's spin about the motor axis is a symmetry: a sphere (any motor position) or a
+    spheroid with the motor at a pole. Off the pole the body's shape turns against the
+    filament once per motor turn: a periodic orbit (refused)."""
+    if boundary.is_cell and boundary.body_aspect != 1.0 and boundary.motor_offset not in (0.0, 180.0):
+        raise ParameterError("motor_offset", boundary.motor_offset,
+                             "0 or 180 for a spheroid body in the stability analysis (off the "
+                             "pole its steady swimming is periodic, no relative equilibrium)")
+
+
 def _check_torque(torque) -> float:
     m = check_range("torque", torque, -1e3, 1e3, lo_open=False)
     if m == 0:
@@ -296,24 +371,29 @@ def _rigid_start(params: Params, boundary: Boundary, torque: float, hydrodynamic
 
 
 def _newton(red: _Reduced, omega: float, tol: float, max_iter: int):
-    """Newton on (ξ, Ω) with the phase condition Ĝ·δξ = 0; returns (Ω, iterations, residual)."""
+    """Newton on (ξ, Ω) with the phase condition Ĝ·δξ = 0; for a cell body also on its spin
+    rate σ (``red.spin``, updated) with Ŝ·δξ = 0 (Ŝ the spin generator). Returns
+    (Ω, iterations, residual)."""
     n = red.size
-    A = np.zeros((n + 1, n + 1))
+    k = 2 if red.model.cell else 1  # extra unknowns: Ω (and σ)
+    A = np.zeros((n + k, n + k))
     scale_u = np.linalg.norm(red.y[:3])
     for it in range(1, max_iter + 1):
         f = red.field(red.y, omega)
-        g = red.generator(red.y)
+        gens = [red.generator(red.y)] + ([red.spin_generator(red.y)] if k == 2 else [])
         A[:n, :n] = red.jacobian(omega)
-        A[:n, n] = -g
-        A[n, :n] = g / np.linalg.norm(g)
+        for c, g in enumerate(gens):
+            A[:n, n + c] = -g
+            A[n + c, :n] = g / np.linalg.norm(g)
         try:
-            d = np.linalg.solve(A, np.r_[-f, 0.0])
+            d = np.linalg.solve(A, np.r_[-f, np.zeros(k)])
         except np.linalg.LinAlgError:
             break
-        r0, s = np.linalg.norm(f), 1.0
+        r0, s, spin0 = np.linalg.norm(f), 1.0, red.spin
         while True:  # backtracking on |f|, unless the step is already tiny (roundoff)
             y = red.embed(s * d[:n])
             y[:3] *= scale_u / np.linalg.norm(y[:3])
+            red.spin = spin0 + (s * d[n + 1] if k == 2 else 0.0)
             if np.abs(d[:n]).max() < 1e-6:
                 break
             r1 = np.linalg.norm(red.field(y, omega + s * d[n]))
@@ -321,10 +401,12 @@ def _newton(red: _Reduced, omega: float, tol: float, max_iter: int):
                 break
             s *= 0.5
             if s < 1e-3:
+                red.spin = spin0
                 return omega, it, math.inf
         red.rebase(y)
         omega += s * d[n]
-        if s == 1.0 and np.abs(d[:n]).max() < tol and abs(d[n]) < tol * max(1.0, abs(omega)):
+        if s == 1.0 and np.abs(d[:n]).max() < tol and all(
+                abs(d[n + c]) < tol * max(1.0, abs(v)) for c, v in enumerate((omega, red.spin)[:k])):
             return omega, it, float(np.abs(red.field(red.y, omega)).max())
     return omega, max_iter, math.inf
 
@@ -334,15 +416,20 @@ class _Branch:
 
     def __init__(self, params: Params, boundary: Boundary, tol: float = 1e-10, max_iter: int = 25,
                  hydrodynamics: Hydrodynamics | None = None):
+        _cell_symmetric(boundary)
         self.params, self.boundary = params, boundary
         self.tol, self.max_iter = tol, max_iter
         self.hydrodynamics = _unfrozen(hydrodynamics)
         self.solutions: list[RelativeEquilibrium] = []
 
-    def _solve(self, torque, y, charts, omega) -> RelativeEquilibrium | None:
+    def _solve(self, torque, y, charts, omega, spin=None) -> RelativeEquilibrium | None:
         m = RodModel(self.params, Motor(torque), self.boundary, hydrodynamics=self.hydrodynamics)
         m.set_charts(*charts)
-        red = _Reduced(m, y)
+        if m.cell and spin is None:  # the body counter-rotates at −M/R∥ about m in the lab
+            b = self.boundary
+            spin = -torque / body_resistance(b.body_radius, b.body_aspect,
+                                             self.params.fluid.viscosity).rotation_axial - omega
+        red = _Reduced(m, y, spin or 0.0)
         omega, it, res = _newton(red, omega, self.tol, self.max_iter)
         if not math.isfinite(res):
             return None
@@ -351,7 +438,9 @@ class _Branch:
         f = m.rhs(0.0, red.y)
         return RelativeEquilibrium(self.params, self.boundary, torque, red.y.copy(), m.charts(),
                                    float(omega), float(m.last_force[2]), float(f[5]), res, it,
-                                   self.hydrodynamics)
+                                   self.hydrodynamics, spin=red.spin,
+                                   cell_motor_speed=float(m.last_relative_motor_speed)
+                                   if m.cell else math.nan)
 
     def _start(self, torque: float, max_step: float) -> RelativeEquilibrium:
         """First solution on the branch, at a torque of the sign of ``torque``."""
@@ -371,9 +460,9 @@ class _Branch:
         k_end = self.boundary.hook_stiffness if self.boundary.hook == "elastic" else CLAMP_STIFFNESS
         logk, dlog = math.log(min(K_START, k_end)), 0.25
         while True:
-            b = Boundary(self.boundary.anchor, self.boundary.sphere_radius, "elastic", math.exp(logk))
+            b = replace(self.boundary, hook="elastic", hook_stiffness=math.exp(logk))
             nxt = _Branch(self.params, b, self.tol, self.max_iter,
-                          self.hydrodynamics)._solve(m0, eq.state, eq.charts, eq.omega)
+                          self.hydrodynamics)._solve(m0, eq.state, eq.charts, eq.omega, eq.spin)
             if nxt is None:
                 logk -= dlog
                 dlog /= 2
@@ -388,8 +477,10 @@ class _Branch:
         if self.boundary.hook == "elastic":
             return replace(eq, boundary=self.boundary)
         y = eq.state.copy()
-        y[:3] = (0.0, 0.0, -np.linalg.norm(y[:3]))  # the clamped hook points along −e_z
-        eq = self._solve(m0, y, eq.charts, eq.omega)
+        # the clamped hook points along −m (−e_z, or a cell body's turned motor axis)
+        m_axis = _Reduced.motor_axis(y) if self.boundary.is_cell else np.array([0.0, 0.0, 1.0])
+        y[:3] = -np.linalg.norm(y[:3]) * m_axis
+        eq = self._solve(m0, y, eq.charts, eq.omega, eq.spin)
         if eq is None:
             raise SimulationError("no aligned rotating state found with a clamped hook")
         return eq
@@ -406,7 +497,8 @@ class _Branch:
         while cur.torque != torque:
             gap = torque - cur.torque
             m_new = torque if abs(gap) <= step else cur.torque + math.copysign(step, gap)
-            nxt = self._solve(m_new, cur.state, cur.charts, cur.omega * m_new / cur.torque)
+            nxt = self._solve(m_new, cur.state, cur.charts, cur.omega * m_new / cur.torque,
+                              cur.spin * m_new / cur.torque)
             if nxt is None:
                 step /= 2
                 if step < 1e-3:
@@ -525,12 +617,27 @@ def _householder(v: np.ndarray) -> np.ndarray:
     return np.eye(len(v)) - 2.0 * np.outer(w, w) / (w @ w)
 
 
+def _symmetry_basis(gens: np.ndarray) -> np.ndarray:
+    """Orthogonal H whose first k columns span the k symmetry generators ``gens`` (k, n)
+    (one generator: a Householder reflection, H v̂ = ±e_0; more: a complete QR)."""
+    if len(gens) == 1:
+        return _householder(gens[0])
+    return np.linalg.qr(gens.T, mode="complete")[0]
+
+
 def _spectrum(eq: RelativeEquilibrium) -> tuple[np.ndarray, float]:
-    """Non-trivial eigenvalues (largest real part first) and the leading mode's lab rate."""
-    red = _Reduced(eq.model(), eq.state)
-    H = _householder(red.generator(eq.state))
-    JH = H @ red.jacobian(eq.omega) @ H  # first column ≈ 0 since J Ĝ = 0
-    w, vr = sla.eig(JH[1:, 1:])
+    """Non-trivial eigenvalues (largest real part first) and the leading mode's lab rate.
+
+    The symmetry generators span an invariant subspace of J (J Ĝ = 0 for the rotation about
+    e_z and a cell body's spin; a cell's tilts about e_x, e_y turn into each other at ±iΩ),
+    so in the basis H = [generators, complement] HᵀJH is block upper triangular and the
+    complement block holds the non-trivial spectrum."""
+    red = _Reduced(eq.model(), eq.state, eq.spin)
+    gens = red.symmetries(eq.state)
+    k = len(gens)
+    H = _symmetry_basis(gens)
+    JH = H.T @ red.jacobian(eq.omega) @ H  # first k columns ≈ J-invariant subspace
+    w, vr = sla.eig(JH[k:, k:])
     order = np.lexsort((-w.imag, -w.real))
     w, vr = w[order], vr[:, order]
     lam, u = w[0], vr[:, 0]
@@ -538,7 +645,8 @@ def _spectrum(eq: RelativeEquilibrium) -> tuple[np.ndarray, float]:
         return w, eq.omega
     # sense of rotation of the free end's displacement X + iY in the co-rotating frame:
     # X = Re(a e^{iσt}), Y = Re(b e^{iσt}) gives X Ẏ − Y Ẋ = −σ Im(ā b)
-    v = H @ np.r_[(JH[0, 1:] @ u) / lam, u]  # Ĝ component from row 0 of H J H
+    top = np.linalg.solve(lam * np.eye(k) - JH[:k, :k], JH[:k, k:] @ u)  # symmetry components
+    v = H @ np.r_[top, u]
     kx, ky = red.tip_xy()
     sense = math.copysign(1.0, -lam.imag * float(np.imag(np.conj(v[kx]) * v[ky])))
     return w, eq.omega + sense * abs(lam.imag)
@@ -684,29 +792,46 @@ def simulated_growth_rate(equilibrium: RelativeEquilibrium, t_end: float, *,
     by ≈ −0.005 /s (rtol = 1e-8); for the slow tilt modes use rtol ≈ 1e-10.
     X is the thrust F (``"thrust"``), or the distance of the free end from the motor axis
     (``"tip_radius"``), which — unlike F — changes at first order under the tilt modes
-    that lead below M ≈ 0.9. Both are invariant under the rotational zero mode.
+    that lead below M ≈ 0.9. Both are invariant under the rotational zero mode. A cell
+    body turns freely in 3D: a tilt of the whole cell is neutral (±iΩ) and changes both, so
+    for a cell X is the elastic energy (``"energy"``), invariant under every rigid motion;
+    its body spin σ is integrated along (the field f − σ S, which keeps φ bounded; the spin
+    is a symmetry).
     """
     from scipy.integrate import solve_ivp
     from scipy.sparse import diags
 
-    if observable not in ("thrust", "tip_radius"):
-        raise ParameterError("observable", observable, "'thrust' or 'tip_radius'")
+    if observable not in ("thrust", "tip_radius", "energy"):
+        raise ParameterError("observable", observable, "'thrust', 'tip_radius' or 'energy'")
     m = equilibrium.model()
+    if m.cell and observable != "energy":
+        raise ParameterError("observable", observable, "'energy' for a cell body (a tilt of "
+                             "the whole cell changes the thrust and the tip radius)")
 
     def measure(y):
         if observable == "thrust":
             return m.bead_force(0.0, y)[2]
+        if observable == "energy":  # as the rhs has it: with a cell's hook term k(1 + t0·m)
+            m.rhs(0.0, y)
+            return m.last_energy
         return math.hypot(y[3 + 4 * m.n], y[4 + 4 * m.n])
 
-    red = _Reduced(m, equilibrium.state)
+    red = _Reduced(m, equilibrium.state, equilibrium.spin)
+
+    def fun(t, y):
+        f = m.rhs(t, y)
+        if m.cell:
+            f[-3:] -= equilibrium.spin * np.array(rotvec_rate(*y[-3:], *_Reduced.motor_axis(y)))
+        return f
+
     xi = np.random.default_rng(seed).normal(size=red.size)
     y0 = red.embed(amplitude * xi / np.linalg.norm(xi))
     n, (kl, ku) = len(y0), m.jacobian_band
     # the unfrozen nonlocal mobility couples every bead: a dense Jacobian
     sparsity = diags([np.ones(n - abs(k)) for k in range(-kl, ku + 1)], list(range(-kl, ku + 1))) \
-        if m.hydrodynamics.is_local else None
+        if m.hydrodynamics.is_local and not m.cell else None
     t = np.linspace(0.0, t_end, samples)
-    sol = solve_ivp(m.rhs, (0.0, t_end), y0, method=method, t_eval=t, rtol=rtol, atol=atol,
+    sol = solve_ivp(fun, (0.0, t_end), y0, method=method, t_eval=t, rtol=rtol, atol=atol,
                     jac_sparsity=sparsity)
     if not sol.success:
         raise SimulationError(f"integration failed: {sol.message}")

@@ -133,13 +133,30 @@ def motor_options(func):
                           "(two-column CSV speed [rad/s], torque [pN·µm], or TOML speeds/torques)"),
         click.option("--ramp-time", type=float, default=0.0, show_default=True,
                      help="ramp the torque (or the clamped speed) on smoothly over this time [s]"),
-        click.option("--reversal-times", type=str, default=None,
-                     help="reverse the motor (CCW <-> CW) at these times [s], comma-separated"),
-        click.option("--reversal-rates", type=str, default=None,
-                     help="random reversals: rates CCW->CW,CW->CCW [1/s] (telegraph process)"),
-        click.option("--reversal-seed", type=int, default=0, show_default=True,
-                     help="seed of the random reversal times"),
+        *_reversal_options(),
     ])
+
+
+def _reversal_options(hidden: bool = False) -> list:
+    """``--reversal-times``, ``--reversal-rates``, ``--reversal-seed`` (the defaults None:
+    :func:`reversals_from_cli` tells given from not given)."""
+    return [
+        click.option("--reversal-times", type=str, default=None, hidden=hidden,
+                     help="reverse the motor (CCW <-> CW) at these times [s], comma-separated"),
+        click.option("--reversal-rates", type=str, default=None, hidden=hidden,
+                     help="random reversals: rates CCW->CW,CW->CCW [1/s] (telegraph process)"),
+        click.option("--reversal-seed", type=int, default=None, hidden=hidden,
+                     help="seed of the random reversal times  [default: 0]"),
+    ]
+
+
+def reversals_from_cli(kwargs: dict) -> dict:
+    """Pop the reversal flags: the :class:`Motor` fields they give (``reversals``,
+    ``reversal_rates``, ``reversal_seed``), only those given."""
+    out = {"reversals": _floats("reversal_times", kwargs.pop("reversal_times", None)),
+           "reversal_rates": _floats("reversal_rates", kwargs.pop("reversal_rates", None)),
+           "reversal_seed": kwargs.pop("reversal_seed", None)}
+    return {k: v for k, v in out.items() if v is not None}
 
 
 def _floats(name: str, text: str | None) -> tuple | None:
@@ -155,10 +172,7 @@ def motor_from_cli(kwargs: dict) -> Motor:
     """Pop the motor flags from ``kwargs`` and build a validated :class:`Motor`
     (:meth:`Motor.from_flags`)."""
     return Motor.from_flags(kwargs.pop("torque"), kwargs.pop("motor_speed"), kwargs.pop("motor_law"),
-                            ramp_time=kwargs.pop("ramp_time"),
-                            reversals=_floats("reversal_times", kwargs.pop("reversal_times")),
-                            reversal_rates=_floats("reversal_rates", kwargs.pop("reversal_rates")),
-                            reversal_seed=kwargs.pop("reversal_seed"))
+                            ramp_time=kwargs.pop("ramp_time"), **reversals_from_cli(kwargs))
 
 
 def threshold_drive_options(func):
@@ -173,6 +187,7 @@ def threshold_drive_options(func):
                      help="under a speed clamp: find the critical rotation rate ω_c1 [rad/s] "
                           "(then --bracket takes motor speeds ω_lo ω_hi)"),
         click.option("--motor-law", type=str, default=None, hidden=True),
+        *_reversal_options(hidden=True),
     ])
 
 
@@ -180,6 +195,10 @@ def threshold_drive_from_cli(kwargs: dict, command: str) -> str:
     """Pop the threshold drive flags from ``kwargs``: ``"torque"`` (the critical torque
     M_c1) or ``"speed"`` (``--motor-speed``: the critical rotation rate of a speed clamp)."""
     torque, speed, law = kwargs.pop("torque"), kwargs.pop("motor_speed"), kwargs.pop("motor_law")
+    for name, value in reversals_from_cli(kwargs).items():  # parsed first: bad text is named
+        flag = {"reversals": "reversal_times"}.get(name, name)
+        raise ParameterError(flag, value, f"left out: {command} finds the threshold of a steady "
+                                          "drive (reversals: flagellum simulate or sweep)")
     if torque is not None:
         raise ParameterError("torque", torque, f"left out: {command} searches the critical "
                                                "torque (give --bracket M_lo M_hi)")

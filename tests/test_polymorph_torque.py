@@ -1,0 +1,90 @@
+"""Torque-driven transformations (docs/polymorphism.md): the event measurement against the
+Nagumo front, nucleation near the hook under a reversed motor and the reversion at forward
+torque, the threshold search and its bad input."""
+
+import math
+
+import numpy as np
+import pytest
+
+from flagellum import Filament, Params
+from flagellum.analysis.polymorph import torque_thresholds
+from flagellum.errors import ParameterError
+from flagellum.motor import Motor
+from flagellum.params import Polymorphism
+from flagellum.rod import polymorph as PM
+from flagellum.simulator import Simulator
+
+SHORT = Params(Filament(length=4.0))
+#: a landscape in which reversed torque nucleates semicoiled domains in the 4 µm filament
+#: (a low barrier and narrow walls; not a fit to experiment, see docs/polymorphism.md)
+SOFT = Polymorphism(forms=("normal", "semicoiled"), barrier=0.2, energies=(0.0, -0.2),
+                    wall_stiffness=0.5)
+
+
+@pytest.mark.parametrize("start, fronts", [("end", 1), ("inside", 2)])
+def test_events_measure_the_wall_speed_of_the_nagumo_front(start, fronts):
+    """The order parameter alone (rod decoupled), form 0 higher by 0.3 pN: a domain of form
+    1 grows at the closed-form Nagumo speed c = √(Dk/2)(1 − 2a)/ζ per front (one front for a
+    domain at the end, two inside); transformation_events recovers c to 2 % and the
+    nucleation site."""
+    n, h, barrier, zeta = 800, 0.05, 1.0, 0.1  # 40 µm: the fronts stay far from the ends
+    k = 64 * barrier
+    D = 0.5 * k  # wall width 1 µm ≫ h
+    x = h * np.arange(n)
+    w = PM.wall_width(barrier, D)
+    if start == "end":
+        phi = 1.0 / (1.0 + np.exp((x - 5.0) / w))
+    else:
+        phi = 1.0 / (1.0 + np.exp((x - 25.0) / w)) - 1.0 / (1.0 + np.exp((x - 15.0) / w))
+    eps = np.array([0.0, -0.3])
+    sub = PM.stable_substep(h, k, D, zeta, np.zeros(2), np.zeros(2), 0.0, 0.0)
+    args = (h, eps, k, D, zeta, 0.0, 0.0, np.zeros((n, 3)), np.zeros(2), np.zeros(2), False,
+            0.0, np.zeros((1, 1)))
+    PM.advance(phi, 0.05, math.ceil(0.05 / sub), *args)  # settle the profile
+    phi0 = phi.copy()
+    ts, rec = [0.0], [phi.copy()]
+    dt = 0.01
+    for i in range(10):
+        PM.advance(phi, dt, math.ceil(dt / sub), *args)
+        ts.append((i + 1) * dt)
+        rec.append(phi.copy())
+    ev = PM.transformation_events(np.array(ts), np.array(rec), h)
+    c = -PM.front_speed(barrier, D, zeta, -0.3)  # front_speed counts into form 1: sign flip
+    assert ev["wall_speed"] == pytest.approx(c, rel=0.02)
+    # the first joint to change lies ahead of a front of the starting domain, within the
+    # front's travel over one record interval (c dt) and a joint
+    front = x[np.nonzero(np.diff(np.rint(phi0)))[0]] + h
+    assert np.min(np.abs(front - ev["nucleation_site"])) <= c * dt + h
+    assert ev["transformed_final"] > 0
+
+
+def test_reversed_torque_nucleates_near_the_hook_and_forward_torque_reverts():
+    """A normal filament (landscape SOFT) stays normal at M = −0.2 pN·µm and forms a
+    semicoiled domain at M = −1.3 pN·µm within the first third of the filament from the hook
+    (the motor's stress is largest there); the motor reversed back to +1.3 pN·µm returns it
+    to normal. Regression values of this code (docs/polymorphism.md)."""
+    below = Simulator(SHORT, Motor(-0.2), polymorphism=SOFT).run(0.05, save_every=5e-3,
+                                                                   progress=False)
+    assert np.all(PM.forms_of(below.polymorph) == 0)
+    sim = Simulator(SHORT, Motor(-1.3, reversals=(0.05,)), polymorphism=SOFT)
+    tr = sim.run(0.1, save_every=2.5e-3, progress=False)
+    half = tr.t <= 0.05
+    s = tr.polymorph_summary()
+    assert np.any(PM.forms_of(tr.polymorph[half]) == 1)
+    assert s["nucleation_site"] < 4.0 / 3
+    assert s["nucleation_time"] < 0.05
+    assert np.all(PM.forms_of(tr.polymorph[-1]) == 0)  # back to normal
+    assert s["domain_walls_final"] == 0
+
+
+def test_bad_threshold_input_is_refused():
+    with pytest.raises(ParameterError, match="bracket_down"):
+        torque_thresholds(SHORT, SOFT, bracket_down=(0.5, 1.0))
+    with pytest.raises(ParameterError, match="bracket_up"):
+        torque_thresholds(SHORT, SOFT, bracket_down=(-0.2, -1.3), bracket_up=(1.0, 0.5),
+                          t_run=0.01)
+    with pytest.raises(ParameterError, match="polymorphic"):
+        torque_thresholds(SHORT, Polymorphism(forms=("normal",)))
+    with pytest.raises(ParameterError, match="min_fraction"):
+        torque_thresholds(SHORT, SOFT, min_fraction=0.0)

@@ -15,6 +15,8 @@ from flagellum.params import Polymorphism
 from flagellum.rod import polymorph as PM
 from flagellum.simulator import Simulator
 
+from conftest import assert_one_line_error
+
 SHORT = Params(Filament(length=4.0))
 #: the default landscape (docs/polymorphism.md: barrier fitted to Hotani's −1.1 pN·µm)
 TWO = Polymorphism(forms=("normal", "semicoiled"))
@@ -121,3 +123,33 @@ def test_bad_threshold_input_is_refused():
         torque_thresholds(SHORT, Polymorphism(forms=("normal",)))
     with pytest.raises(ParameterError, match="min_fraction"):
         torque_thresholds(SHORT, TWO, min_fraction=0.0)
+
+
+def test_cli_polymorph_thresholds(cli, monkeypatch):
+    """The command passes its flags to torque_thresholds and prints its result; bad input is
+    one line naming the flag."""
+    import flagellum.analysis.polymorph as AP
+
+    seen = {}
+
+    def fake(params, pm, boundary, **kw):
+        seen.update(kw, forms=pm.forms, barrier=pm.barrier, length=params.filament.length)
+        return AP.TorqueThresholds(("normal", "semicoiled"), -1.1, 0.4, 1.5, 0.8, 0.6, 0.1,
+                                   0.2, kw["t_run"])
+
+    monkeypatch.setattr(AP, "torque_thresholds", fake)
+    code, text, err = cli("polymorph-thresholds", "--length", 4, "--bracket-down", -0.5, -2,
+                          "--time", 0.02, "--polymorph-barrier", 0.3, "--json")
+    assert code == 0, err
+    import json
+
+    res = json.loads(text)
+    assert res["hysteresis"] == 1.5 and res["forms"] == ["normal", "semicoiled"]
+    assert seen["bracket_down"] == (-0.5, -2.0) and seen["t_run"] == 0.02
+    assert seen["forms"] == ("normal", "semicoiled") and seen["barrier"] == 0.3
+    assert seen["length"] == 4.0
+    monkeypatch.undo()
+    code, _, err = cli("polymorph-thresholds", "--bracket-up", 1, 0.5)
+    assert_one_line_error(code, err, "bracket_up")
+    code, _, err = cli("polymorph-thresholds", "--polymorph-initial", "normal")
+    assert_one_line_error(code, err, "polymorph_initial")

@@ -72,12 +72,12 @@ def torque_thresholds(params: Params | None = None, polymorphism: Polymorphism |
     transformation), both < 0; ``bracket_up`` likewise, both > 0; ``tol`` [pN·µm] the
     bracket width at which bisection stops (the threshold is its midpoint);
     ``min_fraction`` in (0, 1] the fraction of the filament that must have left the
-    starting form. Raises :class:`ParameterError` for a bracket that does not bracket."""
+    starting form; ``t_run`` [s] in (0, 100] (errors name it ``time``, the CLI's flag). Raises :class:`ParameterError` for a bracket that does not bracket."""
     params = params or Params()
     polymorphism = polymorphism or Polymorphism(forms=("normal", "semicoiled"))
     if len(polymorphism.forms) < 2:
         raise ParameterError("polymorphic", ",".join(polymorphism.forms), "at least two forms")
-    t_run = check_range("t_run", t_run, 0.0, 100.0)
+    t_run = check_range("time", t_run, 0.0, 100.0)  # the CLI's --time
     tol = check_range("tol", tol, 0.0, 10.0)
     min_fraction = check_range("min_fraction", min_fraction, 0.0, 1.0, hi_open=False)
     first, second = polymorphism.forms[:2]

@@ -64,8 +64,8 @@ def transformation_run(params: Params, polymorphism: Polymorphism, torque: float
 
 
 def torque_thresholds(params: Params | None = None, polymorphism: Polymorphism | None = None,
-                      boundary: Boundary | None = None, *, bracket_down=(-0.2, -3.0),
-                      bracket_up=(0.05, 3.0), t_run: float = 0.05, tol: float = 0.05,
+                      boundary: Boundary | None = None, *, bracket_down=(-0.3, -2.0),
+                      bracket_up=(0.1, 2.0), t_run: float = 0.05, tol: float = 0.05,
                       min_fraction: float = 0.1) -> TorqueThresholds:
     """Threshold torques of the first two forms of ``polymorphism`` by bisection of
     constant-torque runs (module docstring). ``bracket_down`` = (M without, M with a

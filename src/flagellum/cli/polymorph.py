@@ -14,9 +14,9 @@ from ._output import emit_json, emit_table
 @param_options
 @boundary_options(anchor=False)
 @polymorph_options
-@click.option("--bracket-down", type=float, nargs=2, default=(-0.2, -3.0), show_default=True,
+@click.option("--bracket-down", type=float, nargs=2, default=(-0.3, -2.0), show_default=True,
               help="torques [pN·µm] without and with normal → next form (both < 0)")
-@click.option("--bracket-up", type=float, nargs=2, default=(0.05, 3.0), show_default=True,
+@click.option("--bracket-up", type=float, nargs=2, default=(0.1, 2.0), show_default=True,
               help="torques [pN·µm] without and with the way back (both > 0)")
 @time_option(default=0.05, show_default=True, help="simulated time of each run [s]")
 @click.option("--tol", type=float, default=0.05, show_default=True,

@@ -110,6 +110,7 @@ def test_missing_package_is_one_line_naming_it(package, args):
 BOUNDARY_COMMANDS = {
     "simulate": [], "stability": ["--torque", "1"], "critical-torque": [],
     "bifurcations": ["--mc1-only"], "sweep": ["--torque", "1", "--out", "{tmp}/s.nc"],
+    "polymorph-thresholds": [],
 }
 
 

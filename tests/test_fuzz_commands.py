@@ -118,7 +118,7 @@ def _flat(pairs):
 def test_every_command_is_fuzzed():
     """A new command must be added to this file."""
     fuzzed = {"rft", "info", "demo", "bench", "simulate", "stability", "critical-torque", "sweep",
-              "reproduce", "render", "export", "theory", "bifurcations"}
+              "reproduce", "render", "export", "theory", "bifurcations", "polymorph-thresholds"}
     assert set(main.commands) == fuzzed
     assert set(main.commands["theory"].commands) == {"buckling", "manifold", "rigid-helix",
                                                      "effective-rigidity"}
@@ -154,6 +154,19 @@ def test_stability(pairs):
 def test_critical_torque(no_work, lo, hi, xtol, more):
     with _scratch() as d:
         check(["critical-torque", "--length", "2", "--bracket", lo, hi, *more, "--xtol", xtol],
+              Path(d), allow_work=True)
+
+
+@FAST
+@given(lo=NUMBERS, hi=NUMBERS,
+       pairs=flags(["--time", "--tol", "--min-fraction", "--polymorph-barrier",
+                    "--polymorph-energies", "--polymorphic", "--polymorph-initial"],
+                   NUMBERS | st.sampled_from(["normal", "normal,semicoiled", "curly1,normal",
+                                              "0,1", "0,0.1"])),
+       which=st.sampled_from(["--bracket-down", "--bracket-up"]))
+def test_polymorph_thresholds(no_work, lo, hi, pairs, which):
+    with _scratch() as d:
+        check(["polymorph-thresholds", "--length", "2", which, lo, hi, *_flat(pairs)],
               Path(d), allow_work=True)
 
 

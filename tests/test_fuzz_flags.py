@@ -62,7 +62,7 @@ BASE = {
     "theory manifold": ["-o", "m"], "theory rigid-helix": ["--length", "2"],
     "theory effective-rigidity": [], "sweep": ["--torque", "1", "--out", "r.h5"],
     "reproduce": ["fig3"], "render": ["traj.h5", "--snapshots", "s"],
-    "export": ["traj.h5", "--out", "e"],
+    "export": ["traj.h5", "--out", "e"], "polymorph-thresholds": ["--length", "2"],
 }
 
 

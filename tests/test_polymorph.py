@@ -102,13 +102,14 @@ def test_a_domain_wall_moves_towards_the_higher_energy_form_at_the_nagumo_speed(
 
 
 def test_domain_wall_in_the_rod_moves_towards_the_higher_energy_form():
-    """The coupled filament (defaults: wall width 0.5 µm = 2.5 h): normal | semicoiled; with
+    """The coupled filament (barrier 1 pN, D = 8 pN·µm²: wall width 0.5 µm = 2.5 h):
+    normal | semicoiled; with
     the semicoiled well 1 pN higher the wall runs into the semicoiled domain, with it 1 pN
     lower the other way, at ≈ 20 µm/s (continuum Nagumo front 30 µm/s: the wall spans only
     2.5 joints); with equal wells it creeps at ≈ 1 µm/s (the elastic mismatch at the wall)."""
     def speed(energies):
         pm = Polymorphism(forms=("normal", "semicoiled"), energies=energies,
-                          initial="normal:10,semicoiled:10")
+                          initial="normal:10,semicoiled:10", barrier=1.0, wall_stiffness=8.0)
         sim = Simulator(SHORT, Motor(0.0), polymorphism=pm)
         tr = sim.run(0.02, save_every=2e-3, progress=False)
         pos = [_wall_position(p, 0.2) for p in tr.polymorph]

@@ -295,8 +295,10 @@ class Polymorphism:
 
     forms: tuple = ("normal", "semicoiled", "curly1")
     energies: tuple | None = None
-    barrier: float = 1.0
-    wall_stiffness: float = 8.0
+    #: fitted to the threshold torque of normal → semicoiled, −1.1 pN·µm (Hotani, J. Mol.
+    #: Biol. 156, 791 (1982)), with ``wall_stiffness`` (docs/polymorphism.md)
+    barrier: float = 0.25
+    wall_stiffness: float = 0.5
     friction: float = 0.1
     initial: str | None = None
 

@@ -187,8 +187,10 @@ class Trajectory:
     def polymorph_summary(self, t_from: float | None = None) -> dict:
         """The fraction of the joints in each form (``meta["polymorph_forms"]``) and the number
         of domain walls: means over t ≥ ``t_from`` (default: the last half) and at the end;
-        empty for a single-state run."""
-        from .rod.polymorph import domain_walls, fractions
+        the nucleation site, nucleation and transformation times, transformed fraction and
+        wall speed (:func:`flagellum.rod.polymorph.transformation_events`, from the first
+        record); empty for a single-state run."""
+        from .rod.polymorph import domain_walls, fractions, transformation_events
 
         if self.polymorph is None:
             return {}
@@ -198,7 +200,13 @@ class Trajectory:
         return {"form_fractions": {f: float(np.mean(frac[sel, i])) for i, f in enumerate(forms)},
                 "form_fractions_final": {f: float(frac[-1, i]) for i, f in enumerate(forms)},
                 "domain_walls_mean": float(np.mean(domain_walls(self.polymorph[sel]))),
-                "domain_walls_final": int(domain_walls(self.polymorph[-1]))}
+                "domain_walls_final": int(domain_walls(self.polymorph[-1])),
+                # nucleation, growth and wall speed of the domains leaving the first record's forms
+                **transformation_events(self.t, self.polymorph, self._segment_length())}
+
+    def _segment_length(self) -> float:
+        """h [µm]: the mean bead spacing of the first record."""
+        return float(np.mean(np.linalg.norm(np.diff(self.positions[0], axis=0), axis=1)))
 
     def _window(self, t_from):
         t0 = self.t[0] + 0.5 * (self.t[-1] - self.t[0]) if t_from is None else t_from

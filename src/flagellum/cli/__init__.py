@@ -14,8 +14,8 @@ import click
 
 from .._version import __version__
 from ..errors import FlagellumError
-from . import (bench, bifurcations, demo, export, info, render, reproduce, rft, simulate,
-               stability, sweep, theory)
+from . import (bench, bifurcations, demo, export, info, polymorph, render, reproduce, rft,
+               simulate, stability, sweep, theory)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -29,7 +29,7 @@ def main():
 
 COMMANDS = [rft.rft, demo.demo, simulate.simulate, info.info, bench.bench, stability.stability,
             stability.critical_torque, bifurcations.bifurcations, theory.theory, sweep.sweep,
-            reproduce.reproduce, render.render, export.export]
+            reproduce.reproduce, render.render, export.export, polymorph.polymorph_thresholds]
 
 #: pip names of the packages whose import name differs
 _PIP_NAMES = {"sksundae": "scikit-sundae", "imageio_ffmpeg": "imageio-ffmpeg",

@@ -386,9 +386,9 @@ def polymorph_options(func):
                      help="well energy of each form [pN per µm of filament], comma-separated "
                           "(default all 0)"),
         click.option("--polymorph-barrier", type=float, default=None,
-                     help="barrier between neighbouring forms of equal energy [pN] (default 1)"),
+                     help="barrier between neighbouring forms of equal energy [pN] (default 0.25)"),
         click.option("--polymorph-wall-stiffness", type=float, default=None,
-                     help="domain-wall stiffness D [pN·µm²] (default 8)"),
+                     help="domain-wall stiffness D [pN·µm²] (default 0.5)"),
         click.option("--polymorph-friction", type=float, default=None,
                      help="friction ζ of the order parameter [pN·s] (default 0.1)"),
         click.option("--polymorph-initial", type=str, default=None,

@@ -169,3 +169,57 @@ def fractions(phi, n_forms: int) -> np.ndarray:
     """(…, n_forms) fraction of the joints in each form."""
     f = np.minimum(forms_of(phi), n_forms - 1)
     return np.stack([np.mean(f == m, axis=-1) for m in range(n_forms)], axis=-1)
+
+
+def transformed_length(phi, phi0, h: float) -> np.ndarray:
+    """Length [µm] of filament that has left its starting form: h Σ_j min(|φ_j − φ0_j|, 1)
+    for each record (…, n); continuous in φ, so a moving wall changes it smoothly."""
+    return h * np.sum(np.minimum(np.abs(np.asarray(phi) - np.asarray(phi0)), 1.0), axis=-1)
+
+
+def transformation_events(t, phi, h: float, t_from: float | None = None) -> dict:
+    """Nucleation and growth of the domains that leave the starting form.
+
+    ``t`` (T,) [s], ``phi`` (T, n) the joints' order parameters, ``h`` [µm] the segment
+    length; the starting forms are those of the first record at t ≥ ``t_from`` (default:
+    the first record), and times are counted from that record. Joint j sits at the bead
+    between segments j and j+1, (j + 1) h from the hook.
+
+    Returns ``nucleation_site`` [µm from the hook] and ``nucleation_time`` [s] of the first
+    joint whose form changes (NaN if none does), ``transformation_time`` [s] (the number of
+    joints out of their starting form first reaching 90 % of its largest value),
+    ``transformed_final`` (their fraction at the end) and ``wall_speed`` [µm/s] (the slope
+    of the transformed length ℓ(t), :func:`transformed_length`, between nucleation and 90 %, divided by the number of moving fronts: the edges of the
+    changed region that are not walls of the start; 1 for a domain at an end or a wall that
+    moves, 2 for a domain inside).
+    """
+    t, phi = np.asarray(t, float), np.asarray(phi, float)
+    i0 = 0 if t_from is None else int(np.searchsorted(t, t_from))
+    i0 = min(i0, len(t) - 1)
+    t, phi = t[i0:] - t[i0], phi[i0:]
+    n = phi.shape[1]
+    nan = float("nan")
+    out = {"nucleation_site": nan, "nucleation_time": nan, "transformation_time": nan,
+           "transformed_final": 0.0, "wall_speed": nan}
+    f0 = forms_of(phi[0])
+    changed = forms_of(phi) != f0
+    hit = np.nonzero(changed.any(axis=1))[0]
+    if not hit.size:
+        return out
+    i_nuc = int(hit[0])
+    j_nuc = np.nonzero(changed[i_nuc])[0]
+    # the joint that has gone farthest at nucleation (the nearest to the hook on a tie)
+    j = int(j_nuc[np.argmax(np.abs(phi[i_nuc, j_nuc] - phi[0, j_nuc]))])
+    count = changed.sum(axis=1)
+    i90 = int(np.nonzero(count >= 0.9 * count.max())[0][0])
+    ell = transformed_length(phi, phi[0], h)
+    out.update(nucleation_site=(j + 1) * h, nucleation_time=float(t[i_nuc]),
+               transformation_time=float(t[i90]), transformed_final=float(count[-1] / n))
+    grow = slice(i_nuc, max(i90, i_nuc) + 1)
+    if i90 - i_nuc >= 1:
+        mid = changed[(i_nuc + i90) // 2]
+        # the moving fronts: edges of the changed region that are no wall of the start
+        edges = np.nonzero(np.diff(mid.astype(int)))[0]
+        fronts = int(np.count_nonzero(f0[edges] == f0[edges + 1]))
+        out["wall_speed"] = float(np.polyfit(t[grow], ell[grow], 1)[0] / max(fronts, 1))
+    return out

@@ -18,11 +18,14 @@ from flagellum.params import POLYMORPHIC_FORMS, Polymorphism, helix_strains
 from flagellum.pulling import pull_cycle, up_down
 from flagellum.rod import polymorph as PM
 from flagellum.simulator import Simulator
+from flagellum.reproduce import force_extension as fe
 
 from test_end_load import discrete_spring_compliance
 
 SHORT = Params(Filament(length=4.0))
 CN = ("coiled", "normal")
+#: the pulls' landscape (barrier 1 pN, walls 8 pN·µm²): the reproduce target's, docs/polymorphism.md
+PULL = fe.LANDSCAPE
 
 
 def test_coiled_form_is_a_stress_free_equilibrium():
@@ -126,7 +129,7 @@ def test_pulled_coiled_filament_transforms_to_normal_with_a_loop_and_a_threshold
     estimate (a fast pull overshoots it; see _threshold_bounds). The fully normal filament
     does not transform back: both forms are minima of the landscape at zero load and no
     coiled nucleus is left (no noise)."""
-    pm = Polymorphism(forms=CN, initial="coiled", friction=1.0)
+    pm = Polymorphism(forms=CN, initial="coiled", friction=1.0, **PULL)
     c = pull_cycle(SHORT, pm, trap_stiffness=10.0, schedule=up_down(5.0, 0.8), samples=200)
     tr = c.transitions()
     assert tr.fraction_max == 1.0 and tr.t_up < 0.8  # on the way up
@@ -144,7 +147,7 @@ def test_threshold_and_loop_shrink_with_the_pulling_rate_towards_the_quasi_stati
     """The same pull at 0.5 and 2 µm/s (friction 1 pN·s): the slower pull transforms at a
     lower force, with a smaller loop, and within 15 % of the quasi-static estimate; after
     its threshold the force drops (the sawtooth of a trap-controlled pull)."""
-    pm = Polymorphism(forms=CN, initial="coiled", friction=1.0)
+    pm = Polymorphism(forms=CN, initial="coiled", friction=1.0, **PULL)
     res = {}
     for v in (0.5, 2.0):
         c = pull_cycle(SHORT, pm, trap_stiffness=10.0, schedule=up_down(v, 3.0 / v), samples=200)

@@ -5,8 +5,9 @@ the normal form above a threshold force (3–5 pN in the experiment), rate depen
 Not a figure of Vogel & Stark (2012): the pull of Vogel & Stark, Eur. Phys. J. E 33, 259
 (2010), with this package's polymorphic filament (:mod:`flagellum.rod.polymorph`). The
 filament (L = 4 µm, the paper's rod otherwise, M = 0) starts in the coiled form; forms
-(coiled, normal) with the default landscape of :class:`~flagellum.params.Polymorphism`
-(nothing fitted); the trap (stiffness ``TRAP`` pN/µm) moves out by ``TRAVEL`` µm at each
+(coiled, normal) with the landscape ``LANDSCAPE`` (barrier 1 pN, wall stiffness 8 pN·µm²,
+not fitted to the pull; the defaults of :class:`~flagellum.params.Polymorphism` are fitted to
+Hotani's torques and let the coiled form go at about 0.9 pN, docs/polymorphism.md); the trap (stiffness ``TRAP`` pN/µm) moves out by ``TRAVEL`` µm at each
 rate and back (:func:`flagellum.pulling.pull_cycle`). The single-form filaments (coiled
 alone, normal alone) pulled the same way give the static curves of the two branches.
 Panels: (a) force against extension, (b) the transformation force against the pulling rate.
@@ -28,6 +29,10 @@ LENGTH = 4.0  #: filament length [µm]
 TRAP = 10.0  #: trap stiffness [pN/µm]
 TRAVEL = 3.0  #: how far the trap's centre moves out (and back) [µm]
 FORMS = ("coiled", "normal")
+#: the landscape of the pulls: a barrier of 1 pN and walls of 8 pN·µm², set before the fit of
+#: the defaults to Hotani's torque thresholds (barrier 0.25 pN, walls 0.5 pN·µm²), which
+#: transform the pulled coiled filament at 0.91 pN (1 µm/s), below Darnton & Berg's 3–5 pN
+LANDSCAPE = {"barrier": 1.0, "wall_stiffness": 8.0}
 RATES = {"quick": (2.0, 8.0), "full": (0.25, 0.5, 1.0, 2.0, 4.0, 8.0)}  #: [µm/s]
 #: Darnton & Berg (2007), abstract: thresholds from the coiled and from the normal form [pN]
 DB_COILED, DB_NORMAL = (3.0, 5.0), (4.0, 7.0)
@@ -64,7 +69,7 @@ def pull(job: dict) -> dict:
         k, t = helix_strains(pitch, diameter)
         params = Params(Filament(length=LENGTH, kappa0=k, tau0=t))
     elif form is None:
-        pm = Polymorphism(forms=FORMS, initial=FORMS[0])
+        pm = Polymorphism(forms=FORMS, initial=FORMS[0], **LANDSCAPE)
     c = pull_cycle(params, pm, trap_stiffness=TRAP, schedule=up_down(v, TRAVEL / v), samples=300)
     out = {"rate": v, "form": form or "polymorphic", "t": c.t, "force": c.force,
            "extension": c.extension, "fraction": c.fraction()}

@@ -259,7 +259,7 @@ class PointRun:
         boundary = Boundary.from_flags(**{k: v[k] for k in ("anchor", "sphere_radius", "hook",
                                                             "hook_stiffness") if k in v})
         thermal = bool(v.get("thermal", "kT" in v))
-        solver = {"method": v.get("method", "implicit" if thermal else "cvode"),
+        solver = {"method": v.get("method"),
                   **({"rtol": v["rtol"]} if "rtol" in v else {}),
                   **({"dt": v["dt"]} if "dt" in v else {})}
         from .hydro.options import Hydrodynamics

@@ -60,3 +60,11 @@ def test_regimes_run_with_the_chosen_stepper(monkeypatch):
     assert rows["from_rest_M1"]["method"] == "bdf" and rows["from_rest_M1"]["rtol"] == 1e-4
     assert rows["from_rest_M1"]["error"] < 1e-2  # against the CVODE reference
     assert rows["thermal_M1"]["method"] == "implicit"
+
+
+def test_regimes_default_to_each_runs_default_method(monkeypatch):
+    """Without a solver every deterministic regime runs the default method of its run
+    (:func:`flagellum.integrate.default_method`: the BDF), the thermal one the implicit scheme."""
+    _short(monkeypatch)
+    assert {name: bench.run_regime(name)["method"] for name in bench.REGIMES} == {
+        name: "implicit" if th else "bdf" for name, (_, _, _, th) in bench.REGIMES.items()}

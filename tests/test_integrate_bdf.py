@@ -183,6 +183,31 @@ def test_refuses_thermal_and_nonlocal_runs():
                       1e-3, save_every=1e-3, progress=False)
 
 
+def test_default_method_is_the_bdf_where_it_supports_the_run():
+    """The method of a run that names none: the BDF for a deterministic local run, CVODE where
+    the BDF refuses the run (the checks above) or was not measured, the implicit scheme with
+    noise; a method that is named is kept."""
+    from flagellum.integrate import default_method
+    from flagellum.params import EndLoad, Polymorphism
+
+    assert default_method() == "bdf" and default_method(thermal=True) == "implicit"
+    assert {default_method(**{k: True}) for k in ("cell", "moving_trap", "polymorphic")} == {"cvode"}
+    assert default_method(local=False) == "cvode"
+    runs = {
+        "bdf": [Simulator(SHORT, Motor(0.5)),
+                Simulator(SHORT, Motor(0.5), end_load=EndLoad(force=0.1)),
+                Simulator(SHORT, Motor(0.5), boundary=Boundary(anchor="free", sphere_radius=0.5))],
+        "cvode": [Simulator(SHORT, Motor(0.5), hydrodynamics=Hydrodynamics("sbt")),
+                  Simulator(SHORT, Motor(0.0), end_load=EndLoad(trap_stiffness=10.0, pull_rate=0.1)),
+                  Simulator(SHORT, Motor(0.5), boundary=Boundary(anchor="free", body_radius=0.5)),
+                  Simulator(SHORT, Motor(0.5), polymorphism=Polymorphism()),
+                  Simulator(SHORT, Motor(0.5), solver=SolverOptions(method="cvode"))],
+        "implicit": [Simulator(SHORT, thermal=True)]}
+    assert {k: [s.solver.method for s in v] for k, v in runs.items()} == {
+        k: [k] * len(v) for k, v in runs.items()}
+    assert SolverOptions().method is None
+
+
 @pytest.mark.parametrize("torque, t_end, tol", [(0.25, 0.05, 1e-5), (1.6, 0.03, 2e-4)])
 def test_time_averages_agree_with_cvode(torque, t_end, tol):
     """Paper filament from rest: small torque (F/M on the pinned rigid-helix line, paper

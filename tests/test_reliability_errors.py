@@ -58,7 +58,8 @@ def test_a_failing_cvode_run_is_one_line_in_a_real_process(tmp_path):
     """CVODE's warnings (t + h = t, fd 1 routed to stderr by the console script) and its
     error (scikit-sundae's print) used to come before our line; now they are in it."""
     r = subprocess.run([sys.executable, "-c", FAIL_CVODE, "simulate", "--length", "2",
-                        "--time", "0.01", "--json"], capture_output=True, text=True, timeout=300,
+                        "--time", "0.01", "--method", "cvode", "--json"],  # not the default BDF
+                       capture_output=True, text=True, timeout=300,
                        cwd=tmp_path)
     assert_one_line_error(r.returncode, r.stderr)
     assert r.stderr.startswith("flagellum: error: CVODE failed at t = ") and "SUNDIALS:" in r.stderr

@@ -429,7 +429,8 @@ def test_a_registered_stepper_is_used(monkeypatch):
             return super().advance(t)
 
     monkeypatch.setitem(base.STEPPERS, "recording", Recording)
-    ref = Simulator(SHORT, Motor(0.3)).run(0.002, save_every=1e-3, progress=False)
+    ref = Simulator(SHORT, Motor(0.3), solver=SolverOptions(method="cvode")).run(
+        0.002, save_every=1e-3, progress=False)  # the class Recording extends
     sim = Simulator(SHORT, Motor(0.3), solver=SolverOptions(method="recording"))
     tr = sim.run(0.002, save_every=1e-3, progress=False)
     assert calls and calls[-1] == 0.002 and sim.steps > 0

@@ -64,9 +64,11 @@ def simulate(torque: float = 1.0, time: float = 0.3, *, save_every: float | None
     thermal : add thermal noise (Brownian forces and torques at ``kT``); implied by ``kT``.
     kT : thermal energy [pN·µm] (4.1e-3 at room temperature); giving it makes the run thermal.
     seed : seed of the random stream of a thermal run (non-negative integer).
-    method : integrator: ``"cvode"`` (adaptive, error-controlled; the default without noise)
-        or ``"implicit"`` (fixed step ``dt``; the default and the only choice with noise).
-    rtol : relative tolerance of ``"cvode"`` (positions in µm, angles in rad).
+    method : integrator: ``"bdf"`` (the Numba variable-order BDF, adaptive), ``"cvode"``
+        (SUNDIALS, adaptive) or ``"implicit"`` (fixed step ``dt``; the only choice with
+        noise); default: :func:`~flagellum.integrate.default_method` (``"bdf"`` for the
+        deterministic runs it supports, ``"cvode"`` for the others, ``"implicit"`` with noise).
+    rtol : relative tolerance of ``"bdf"`` and ``"cvode"`` (positions in µm, angles in rad).
     dt : time step of ``"implicit"`` [s].
     scheme, theta : fixed-step scheme of ``"implicit"``: ``"bdf2"`` (default) or the
         θ-method (``"theta"``, implied by ``theta``; 1 implicit Euler, 0.5 trapezoidal).
@@ -97,7 +99,7 @@ def simulate(torque: float = 1.0, time: float = 0.3, *, save_every: float | None
     flat = {**overrides, **({"kT": kT} if kT is not None else {})}
     model = Params.from_flat(flat, base=base) if flat else base
     thermal = bool(thermal) or kT is not None
-    solver = SolverOptions(method=method or ("implicit" if thermal else "cvode"), rtol=rtol, dt=dt,
+    solver = SolverOptions(method=method, rtol=rtol, dt=dt,
                            scheme=scheme, theta=theta, frame=frame)
     boundary = Boundary.from_flags(anchor=anchor, sphere_radius=sphere_radius, hook=hook,
                                    hook_stiffness=hook_stiffness, body_radius=body_radius,

@@ -14,7 +14,8 @@
   with the wall seconds per simulated second, the solver's steps, steps per motor
   revolution, and the error of the time-averaged thrust, ω and χ (last half of the window)
   against a tight-tolerance run whose own convergence is shown by a second, looser one.
-  Any deterministic stepper can run them (``solver``; ``flagellum bench --method bdf``).
+  Any deterministic stepper can run them (``solver``; ``flagellum bench --method cvode``);
+  by default each run's default method (the Numba BDF for all deterministic ones).
 * ``work_precision`` (:func:`work_precision`): error of those averages against wall time for
   CVODE and the Numba BDF (:mod:`flagellum.integrate.bdf`) over rtol and the fixed-step BDF2
   over Δt (buckled M = 1.6 and M = 1 from rest by default, any of :data:`REGIMES`);
@@ -62,7 +63,7 @@ def bench(window: float = 0.2, quick: bool = False, with_regimes: bool = True,
     t0, start, frame0 = sim.t, sim.state(), sim.model.omega_frame
     tr, wall, steps = _timed(sim, t0 + window, window / 100)
     ref = Simulator.from_state(start, Params(), Motor(1.0), t=t0, omega_frame=frame0,
-                               solver=SolverOptions(rtol=1e-10, atol=1e-12))
+                               solver=SolverOptions(method="cvode", rtol=1e-10, atol=1e-12))
     ref_tr = ref.run(t0 + window, save_every=window / 100, progress=False)
     out.update(wall_per_simulated_second=wall / window, steps=steps,
                thrust=float(np.mean(tr.thrust)),
@@ -149,7 +150,8 @@ def run_regime(name: str, solver: SolverOptions | None = None, window: float | N
     s = summarize(tr.t, tr.thrust, tr.motor_angle, tr.positions, tr.energy,
                   tr.meta.get("helix_radius", 0.2))
     revolutions = abs(tr.motor_angle[-1] - tr.motor_angle[0]) / (2 * np.pi)
-    return {"window": w, "wall_seconds": wall, "wall_per_simulated_second": wall / w,
+    return {"method": sim.solver.method, "window": w, "wall_seconds": wall,
+            "wall_per_simulated_second": wall / w,
             "steps": steps, "steps_per_revolution": steps / max(revolutions, 1e-12),
             "thrust": s.thrust_mean, "omega": s.omega_mean, "chi": s.chi_mean}
 
@@ -175,7 +177,8 @@ def warm_up() -> None:
 
 
 def regimes(quick: bool = False, names=None, solver: SolverOptions | None = None) -> dict:
-    """:data:`REGIMES` at ``solver`` (default: the default solver; thermal: always the
+    """:data:`REGIMES` at ``solver`` (default: each run's default method,
+    :func:`~flagellum.integrate.default_method`, at the default rtol; thermal: always the
     default fixed-step scheme), each against a CVODE rtol = 1e-10 reference over
     the same window (thermal: no reference, the noise differs per step size). ``reference_check``
     is the error of an rtol = 1e-9 run against the reference, an upper bound on the reference's
@@ -187,7 +190,6 @@ def regimes(quick: bool = False, names=None, solver: SolverOptions | None = None
         torque, w, _, thermal = REGIMES[name]
         w = 0.25 * w if quick else w
         row = {"torque": torque, **run_regime(name, None if thermal else solver, window=w)}
-        row["method"] = "implicit" if thermal else (solver or SolverOptions()).method
         if not thermal:
             row["rtol"] = (solver or SolverOptions()).rtol
         if not thermal:
@@ -218,7 +220,7 @@ def work_precision(quick: bool = False, names=("buckled_M1.6", "from_rest_M1")) 
         points += [("bdf2", d) for d in (DTS[:2] if quick else DTS)]
         for kind, value in points:
             r = run_regime(name, _solver(kind, value), w)
-            rows.append({"method": kind, METHODS[kind][1]: value, **r, **average_errors(r, ref)})
+            rows.append({**r, "method": kind, METHODS[kind][1]: value, **average_errors(r, ref)})
         out[name] = {"window": w, "reference": ref, "runs": rows}
     return out
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -36,7 +36,7 @@ from .helix import Helix
 from .hydro.body import matrix_rotvec, rotvec_matrix
 from .hydro.options import Hydrodynamics
 from .hydro.rft import pinned_helix, pinned_omega_per_torque
-from .integrate import ATOL_PER_RTOL
+from .integrate import ATOL_PER_RTOL, default_method
 from .integrate.base import STEPPERS, make_stepper
 from .motor import Boundary, Motor
 from .params import EndLoad, Params, Polymorphism, check_choice, check_range, check_real, positive
@@ -55,9 +55,11 @@ CHART_LIMIT = -0.8  #: re-centre a chart (and restart the integrator) when t·u 
 class SolverOptions:
     """Numerical settings.
 
-    method : ``"cvode"`` (deterministic, error-controlled) or ``"implicit"`` (fixed-step
-        drift-implicit scheme; the only choice with thermal noise); any key of
-        :data:`flagellum.integrate.base.STEPPERS`.
+    method : ``"bdf"`` (the Numba variable-order BDF), ``"cvode"`` (deterministic,
+        error-controlled) or ``"implicit"`` (fixed-step drift-implicit scheme; the only choice
+        with thermal noise); any key of :data:`flagellum.integrate.base.STEPPERS`. None
+        (default): the run's :func:`~flagellum.integrate.default_method`, chosen by the
+        :class:`Simulator` (:func:`resolve_method`).
     rtol, atol : CVODE tolerances (positions in µm, angles in rad); ``atol=None`` means
         ``rtol * ATOL_PER_RTOL`` (:data:`flagellum.integrate.ATOL_PER_RTOL`).
     dt : step of the fixed-step scheme [s].
@@ -73,7 +75,7 @@ class SolverOptions:
         or a fixed rotation rate [rad/s].
     """
 
-    method: str = "cvode"
+    method: str | None = None
     rtol: float = 1e-6
     atol: float | None = None
     dt: float = 5e-5
@@ -82,7 +84,8 @@ class SolverOptions:
     scheme: str | None = None
 
     def __post_init__(self):
-        check_choice("method", self.method, tuple(STEPPERS))
+        if self.method is not None:
+            check_choice("method", self.method, tuple(STEPPERS))
         if self.scheme is None:  # giving θ selects the θ-method
             object.__setattr__(self, "scheme", "bdf2" if self.theta is None else "theta")
         check_choice("scheme", self.scheme, ("bdf2", "theta"))
@@ -137,7 +140,7 @@ def check_cell(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynami
     if not hydrodynamics.is_local:
         raise ParameterError("hydrodynamics", hydrodynamics.model, "'rft' with a cell body "
                              "(--body-radius): the body's flow field is not coupled to sbt")
-    if solver.method != "cvode":
+    if solver.method not in (None, "cvode"):
         raise ParameterError("method", solver.method, "'cvode' with a cell body (--body-radius)")
 
 
@@ -147,12 +150,26 @@ def check_setup(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynam
     (also what a sweep checks of its points before the first runs)."""
     if thermal and params.fluid.kT <= 0:
         raise ParameterError("kT", params.fluid.kT, "> 0 for a thermal run")
-    if thermal and solver.method != "implicit":
+    if thermal and solver.method not in (None, "implicit"):
         raise ParameterError("method", solver.method, "'implicit' for a thermal run")
     check_cell(params, solver, hydrodynamics, thermal, boundary)
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
                              or not 0 <= seed < 2**63):  # an int64 attribute of the files
         raise ParameterError("seed", seed, "an integer in [0, 2**63 - 1]")
+
+
+def resolve_method(solver: SolverOptions, thermal: bool, hydrodynamics: Hydrodynamics,
+                   boundary: Boundary | None, end_load: EndLoad | None,
+                   polymorphism: Polymorphism | None) -> SolverOptions:
+    """``solver`` with its method set: the run's :func:`~flagellum.integrate.default_method`
+    where ``solver.method`` is None."""
+    if solver.method is not None:
+        return solver
+    return replace(solver, method=default_method(
+        thermal=thermal, local=hydrodynamics.is_local,
+        cell=boundary is not None and boundary.is_cell,
+        moving_trap=end_load is not None and end_load.active and end_load.pull_rate != 0.0,
+        polymorphic=polymorphism is not None))
 
 
 def _rotate_z(v: np.ndarray, angle: float) -> np.ndarray:
@@ -201,7 +218,8 @@ class Simulator:
         self.hydrodynamics = hydrodynamics or Hydrodynamics()
         self.motor = motor or Motor()
         self.boundary = boundary or Boundary()
-        self.solver = solver or SolverOptions(method="implicit" if thermal else "cvode")
+        self.solver = resolve_method(solver or SolverOptions(), thermal, self.hydrodynamics,
+                                     self.boundary, self.end_load, polymorphism)
         self.thermal = bool(thermal)
         check_setup(self.params, self.solver, self.hydrodynamics, self.thermal, seed, self.boundary)
         self.seed = int(seed) if seed is not None else 0
@@ -744,12 +762,18 @@ def plan_run(t0: float, t_end, save_every=None, checkpoint_every=None) -> dict:
 
 def run_first_success(make, attempts, t_end: float, save_every: float):
     """Run ``make(method, frame)`` for each (method, frame) of ``attempts`` until one run to
-    ``t_end`` succeeds (callers list CVODE in one or two frames, then the fixed-step solver:
-    it does not stall where CVODE's step size collapses). Returns (trajectory, simulator,
+    ``t_end`` succeeds (callers list the default method (None) in one or two frames, then
+    CVODE, then the fixed-step solver: it does not stall where an adaptive step size
+    collapses); a method None is the run's default, and an attempt that resolves to one
+    already made is skipped. Returns (trajectory, simulator,
     method, frame, errors), trajectory None if every attempt failed; invalid parameters raise."""
-    errors = []
+    errors, tried = [], set()
     for method, frame in attempts:
         sim = make(method, frame)
+        method = sim.solver.method  # None: the run's default method
+        if (method, frame) in tried:  # a default that resolved to a method tried already
+            continue
+        tried.add((method, frame))
         try:
             return sim.run(t_end, save_every=save_every, progress=False), sim, method, frame, errors
         except ParameterError:

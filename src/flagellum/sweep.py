@@ -280,7 +280,7 @@ class PointRun:
                                                             "hook_stiffness", "body_radius",
                                                             "body_aspect", "motor_offset") if k in v})
         thermal = bool(v.get("thermal", "kT" in v))
-        solver = {"method": v.get("method", "implicit" if thermal else "cvode"),
+        solver = {"method": v.get("method"),
                   **({"rtol": v["rtol"]} if "rtol" in v else {}),
                   **({"dt": v["dt"]} if "dt" in v else {})}
         from .hydro.options import Hydrodynamics

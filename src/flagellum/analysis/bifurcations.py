@@ -94,7 +94,8 @@ class RunConfig:
         t_total = t_start + self.t_end
         # the co-rotating frame fails with CVODE at large torques (and after a step)
         frames = ("lab", "auto") if (state is not None or M >= self.step_from) else ("auto", "lab")
-        attempts = [("cvode", f) for f in frames] + [("implicit", "lab")]
+        attempts = ([(None, f) for f in frames] + [("cvode", f) for f in frames]
+                    + [("implicit", "lab")])  # None: the run's default method
         wall0 = time.perf_counter()
 
         def make(method, frame):  # a continuation starts from the last run's lab-frame state

@@ -278,8 +278,9 @@ def solver_options(func):
     """``--method``, ``--rtol``, ``--dt``, ``--scheme``, ``--theta``, ``--frame``."""
     return _add(func, [
         click.option("--method", type=click.Choice(["cvode", "implicit", "bdf"]), default=None,
-                     help="integrator (default: cvode, implicit for thermal runs; bdf: the "
-                          "Numba variable-order BDF)"),
+                     help="integrator (default: bdf, the Numba variable-order BDF, where it "
+                          "supports the run; cvode with sbt, a cell body, a moving trap or "
+                          "polymorphism; implicit for thermal runs)"),
         click.option("--rtol", type=float, default=1e-6, show_default=True,
                      help="relative tolerance (cvode, bdf)"),
         click.option("--dt", type=float, default=5e-5, show_default=True,
@@ -296,8 +297,9 @@ def solver_options(func):
 
 def solver_from_cli(kwargs: dict, thermal: bool):
     """Pop the solver flags from ``kwargs`` and build validated ``SolverOptions`` (the
-    default method: implicit for thermal runs, else cvode; atol: the default of
-    ``SolverOptions`` for this rtol)."""
+    default method: None, the run's :func:`~flagellum.integrate.default_method`; atol: the
+    default of ``SolverOptions`` for this rtol)."""
+    from ..integrate import default_method
     from ..simulator import SolverOptions
 
     frame = kwargs.pop("frame")
@@ -305,11 +307,12 @@ def solver_from_cli(kwargs: dict, thermal: bool):
         frame = float(frame)
     except ValueError:
         pass
-    method = kwargs.pop("method") or ("implicit" if thermal else "cvode")
+    method = kwargs.pop("method")
     theta, scheme = kwargs.pop("theta"), kwargs.pop("scheme")
-    if method != "implicit" and (scheme is not None or theta is not None):  # never silently unused
+    shown = method or default_method(thermal=thermal)  # only "implicit or not" matters here
+    if shown != "implicit" and (scheme is not None or theta is not None):  # never silently unused
         flag, value = ("scheme", scheme) if scheme is not None else ("theta", theta)
-        raise ParameterError(flag, value, f"given only with --method implicit (method is {method!r})")
+        raise ParameterError(flag, value, f"given only with --method implicit (method is {shown!r})")
     if theta is not None and scheme == "bdf2":
         raise ParameterError("theta", theta, "given only with --scheme theta (scheme is 'bdf2')")
     return SolverOptions(method=method, rtol=kwargs.pop("rtol"), dt=kwargs.pop("dt"),

@@ -20,8 +20,9 @@ from ._output import emit_json, emit_table, fmt
 @click.option("--plot-regime", "plot_regimes", multiple=True,
               help="regime of the work–precision diagram, a key of flagellum.bench.REGIMES "
                    "(repeatable; default: buckled_M1.6 and from_rest_M1)")
-@click.option("--method", type=click.Choice(["cvode", "bdf"]), default="cvode", show_default=True,
-              help="integrator of the deterministic regimes")
+@click.option("--method", type=click.Choice(["cvode", "bdf"]), default=None,
+              help="integrator of the deterministic regimes (default: the runs' default "
+                   "method, bdf)")
 @click.option("--rtol", type=float, default=None,
               help="relative tolerance of the deterministic regimes (default: the solver's)")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")

@@ -33,7 +33,7 @@ _HELP = {
     "average_from": "average from this time on [s] (default: last half)",
     "thermal": "true or false (default: true when kT is given)",
     "seed": "random seed of thermal runs (default 0)",
-    "method": "integrator: cvode or implicit",
+    "method": "integrator: bdf, cvode or implicit (default: the run's default method)",
     "rtol": "relative tolerance of cvode",
     "dt": "time step of the implicit scheme [s]",
 }

@@ -249,9 +249,9 @@ def simulate_point(spec: dict) -> dict:
         frames.append("lab")
     n_save = int(spec.get("samples", 600))
     wall0 = time.perf_counter()
-    attempts = [("implicit" if thermal else "cvode", frame) for frame in frames]
+    attempts = [(None, frame) for frame in frames]  # the run's default method
     if not thermal:
-        attempts.append(("implicit", frames[-1]))
+        attempts += [("cvode", frame) for frame in frames] + [("implicit", frames[-1])]
 
     def make(method, frame):
         solver = SolverOptions(method=method, frame=frame, dt=float(spec.get("dt", 5e-5)))

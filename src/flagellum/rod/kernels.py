@@ -506,7 +506,8 @@ def _rhs_kernel(GENERAL):
         φ̇ = J⁻¹(φ)(Ω − Ω_frame e_z) (:func:`flagellum.hydro.body.rotvec_rate`).
         Returns (energy, elastic force on bead 0 (3 values), motor speed ω_hook·e_z in the lab
         (ω_hook·m about a cell body's motor axis m), motor torque applied, motor speed relative
-        to the body, a cell body's motion (:func:`cell_motion`; else a placeholder)).
+        to the body, a cell body's motion (:func:`cell_motion`; else a placeholder; not
+        returned by :func:`rod_rhs`)).
         """
         n = iprm[I_N]
         h = prm[P_H]
@@ -625,7 +626,10 @@ def _rhs_kernel(GENERAL):
             speed = cm[16]
             ydot[ny - 3], ydot[ny - 2], ydot[ny - 1] = B.rotvec_rate(y[ny - 3], y[ny - 2], y[ny - 1],
                                                                      cm[4], cm[5], cm[6] - omega_frame)
-        return energy, f0x, f0y, f0z, speed, torque, relative, cm
+        if GENERAL:
+            return energy, f0x, f0y, f0z, speed, torque, relative, cm
+        # (no cell-body motion to return: a returned array costs a box per Python call)
+        return energy, f0x, f0y, f0z, speed, torque, relative
     return rhs
 
 

@@ -357,7 +357,8 @@ class RodModel:
         res = self.rhs_kernel(y, ydot, self.prm, self.iprm, self.ref_u, self.ref_e, self.ref_m,
                               self._zf if noise_f is None else noise_f,
                               self._zm if noise_m is None else noise_m, self._zh, self._ws)
-        self.last_force[:] = res[1:4]
+        force = self.last_force
+        force[0], force[1], force[2] = res[1], res[2], res[3]  # (a slice from a tuple: 1 µs)
         self.last_energy, self.last_motor_speed, self.last_torque = res[0], res[4], res[5]
         self.last_relative_motor_speed = res[6]
         if self.cell:

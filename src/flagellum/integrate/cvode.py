@@ -208,7 +208,7 @@ class CvodeStepper:
         m.prm[K.P_TORQUE] = m.motor(t)
         y, yp = self._writable(y, yp)
         m.jacobian_kernel(y, yp, *m.kernel_arrays, self._kl, self._ku, self._ab, 1.0, self._yw,
-                           self._fw, *m.jacobian_colors(self._kl, self._ku))
+                          self._fw, *m.jacobian_colors(self._kl, self._ku))
         _band_to_dense(self._ab, self._kl, self._ku, jj)
         self.n_jac += 1
 
@@ -217,7 +217,7 @@ class CvodeStepper:
         m.prm[K.P_TORQUE] = m.motor(t)
         y, yp = self._writable(y, yp)
         m.jacobian_kernel(y, yp, *m.kernel_arrays, self._kl, self._ku, self._ab, 1.0, self._yw,
-                           self._fw, *m.jacobian_colors(self._kl, self._ku))
+                          self._fw, *m.jacobian_colors(self._kl, self._ku))
         self.n_jac += 1
 
     def _psetup(self, t, y, yp, jok, jnew, gamma):

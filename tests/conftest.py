@@ -3,10 +3,15 @@ one-line error contract (one line on stderr naming the parameter, exit code 2, n
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
 import pytest
+
+# no background warm-up of Numba's cache (flagellum.integrate.cache) from test processes:
+# the tests of the warm-up start it themselves
+os.environ.setdefault("FLAGELLUM_WARMUP", "0")
 
 
 def run_cli_subprocess(*args, timeout: float = 600, **kw) -> subprocess.CompletedProcess:

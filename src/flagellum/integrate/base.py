@@ -17,6 +17,7 @@ import numpy as np
 from ..errors import ParameterError
 from .bdf import BdfStepper
 from .brownian import ImplicitStepper
+from .cache import warm_in_background
 from .cvode import CvodeStepper
 
 
@@ -84,6 +85,7 @@ def make_stepper(method: str, model, t: float, y: np.ndarray, options, *, kT: fl
         cls = STEPPERS[method]
     except KeyError:
         raise ParameterError("method", method, f"one of {', '.join(STEPPERS)}") from None
+    warm_in_background(exclude=method)  # the other solvers' kernels compile alongside
     return cls.from_options(model, t, y, options, kT=kT, seed=seed, rng_state=rng_state)
 
 

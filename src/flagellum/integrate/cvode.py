@@ -160,6 +160,11 @@ class CvodeStepper:
         self._yw = np.zeros(n)
         self._fw = np.zeros(n)
         self._f0 = np.zeros(n)
+        # CVODE hands read-only views of its vectors to the callbacks; the kernels get them
+        # copied into writable arrays, so that they are compiled for one array type only
+        # (a read-only argument is another Numba signature: a second compile of the rod
+        # kernels, ≈ 10 s on the first run after installing)
+        self._y = np.zeros(n)
         self._pab = np.zeros_like(self._ab)  # factorized I − γJ (nonlocal: the preconditioner)
         self._ipiv = np.zeros(n, np.int64)
         self._backup = np.zeros((n, self._kl + self._ku + 1))
@@ -190,21 +195,29 @@ class CvodeStepper:
                 np.multiply(delta, s, out=dm)
                 dm += frm
                 self._ramp_s = s
-        self.model.rhs(t, y, out=yp)
+        self._y[:] = y
+        self.model.rhs(t, self._y, out=yp)
+
+    def _writable(self, y, yp):
+        self._y[:] = y
+        self._f0[:] = yp
+        return self._y, self._f0
 
     def _jac(self, t, y, yp, jj):
         m = self.model
         m.prm[K.P_TORQUE] = m.motor(t)
-        K.colored_jacobian(y, yp, *m.kernel_arrays, self._kl, self._ku, self._ab, 1.0, self._yw,
-                           self._fw, *m.jacobian_colors(self._kl, self._ku))
+        y, yp = self._writable(y, yp)
+        m.jacobian_kernel(y, yp, *m.kernel_arrays, self._kl, self._ku, self._ab, 1.0, self._yw,
+                          self._fw, *m.jacobian_colors(self._kl, self._ku))
         _band_to_dense(self._ab, self._kl, self._ku, jj)
         self.n_jac += 1
 
     def _band_jacobian(self, t, y, yp):
         m = self.model
         m.prm[K.P_TORQUE] = m.motor(t)
-        K.colored_jacobian(y, yp, *m.kernel_arrays, self._kl, self._ku, self._ab, 1.0, self._yw,
-                           self._fw, *m.jacobian_colors(self._kl, self._ku))
+        y, yp = self._writable(y, yp)
+        m.jacobian_kernel(y, yp, *m.kernel_arrays, self._kl, self._ku, self._ab, 1.0, self._yw,
+                          self._fw, *m.jacobian_colors(self._kl, self._ku))
         self.n_jac += 1
 
     def _psetup(self, t, y, yp, jok, jnew, gamma):

@@ -480,178 +480,211 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el):
     return out
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
-    """Overdamped dynamics (paper Eqs. (6)–(7) and the hook balance Eq. (12), Sec. 2.3).
+def _rhs_kernel(GENERAL):
+    """:func:`rhs` (``GENERAL``) or :func:`rod_rhs`: the same source; without ``GENERAL`` the
+    cell-body and per-joint-shape paths are pruned at compile time (neither they nor
+    :func:`cell_motion` are compiled, and the kernel is smaller)."""
 
-    Lab-frame velocities from [γ∥ tt + γ⊥(1 − tt)] w v = f (w = h, end beads h/2, t the
-    averaged tangent; with iprm[I_HYDRO] ≠ HYDRO_LOCAL plus the frozen nonlocal correction
-    ΔM f of the bead forces, see :func:`_add_correction`), spin γR h ω3 = m, hook [γR h t0t0 + ½γ⊥h³(1 − t0t0)] ω = M e_z − τ;
-    then written in a frame rotating at Ω = prm[P_OMEGA] about e_z.
+    @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+    def rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
+        """Overdamped dynamics (paper Eqs. (6)–(7) and the hook balance Eq. (12), Sec. 2.3).
 
-    ``ext_f`` (n+1, 3), ``ext_m`` (n+1): extra forces on the beads and torques about the
-    frame tangents and ``ext_hook`` (3) a torque on the hook frame (thermal noise), added to
-    the elastic forces and the motor torque scaled by prm[P_ELASTIC].
-    If iprm[I_GEN] = 1 they are *generalized* forces conjugate to (r_i, θ_i) and are turned
-    into physical ones with the chart's spin connection (used for the Itô drift).
-    The motor torque is prm[P_TORQUE] or, for a speed clamp or a torque–speed law
-    (iprm[I_DRIVE]), solved from the hook balance (:func:`motor_torque`).
-    A cell body (iprm[I_ANCHOR] = ANCHOR_CELL) moves bead 0 and the hook frame with it
-    (:func:`cell_motion`) and its orientation φ (the state's last three values) at
-    φ̇ = J⁻¹(φ)(Ω − Ω_frame e_z) (:func:`flagellum.hydro.body.rotvec_rate`).
-    Returns (energy, elastic force on bead 0 (3 values), motor speed ω_hook·e_z in the lab
-    (ω_hook·m about a cell body's motor axis m), motor torque applied, motor speed relative
-    to the body, a cell body's motion (:func:`cell_motion`; else a placeholder)).
-    """
-    n = iprm[I_N]
-    h = prm[P_H]
-    gpar, gperp, grot = prm[P_GPAR], prm[P_GPERP], prm[P_GROT]
-    omega_frame = prm[P_OMEGA]
-    T, E1, E2, LEN, S, GT, GTH, DR, V, A1, DM = ws
-    el = prm[P_ELASTIC]
-    if el == 0.0:  # mobility only (thermal increments): no elastic forces to compute
-        frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1)
-        GT[:, :] = 0.0
-        GTH[:] = 0.0
-        DR[:, :] = 0.0
-        energy = 0.0
-    elif iprm[I_SEGMENTS] == 1:
-        o = iprm[I_EXTRA] + X_SEG
-        energy = elastic(y, n, h, prm[P_A], prm[P_C], prm[P_K], prm[P_KAPPA], prm[P_TAU],
-                         prm[P_HOOKK], ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH, A1,
-                         prm[o:o + n], prm[o + n:o + 2 * n])
-        bead_gradient(n, h, prm[P_K], T, LEN, GT, DR)
-    else:
-        energy = elastic(y, n, h, prm[P_A], prm[P_C], prm[P_K], prm[P_KAPPA], prm[P_TAU],
-                         prm[P_HOOKK], ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH, A1)
-        bead_gradient(n, h, prm[P_K], T, LEN, GT, DR)
-    f0x, f0y, f0z = -DR[0, 0], -DR[0, 1], -DR[0, 2]
-    for i in range(n + 1):
-        for k in range(3):
-            DR[i, k] = el * DR[i, k] - ext_f[i, k]
-        GTH[i] = el * GTH[i] - ext_m[i]
-    if iprm[I_EXTRA] > 0 and el != 0.0:  # load on the free end: −F e_z + trap k (z_c − z_N) e_z
-        o = iprm[I_EXTRA]
-        DR[n, 2] -= el * end_load(y, n, prm[o + X_FORCE], prm[o + X_TRAP_K], prm[o + X_TRAP_Z])
-    if el != 1.0:
+        Lab-frame velocities from [γ∥ tt + γ⊥(1 − tt)] w v = f (w = h, end beads h/2, t the
+        averaged tangent; with iprm[I_HYDRO] ≠ HYDRO_LOCAL plus the frozen nonlocal correction
+        ΔM f of the bead forces, see :func:`_add_correction`), spin γR h ω3 = m, hook [γR h t0t0 + ½γ⊥h³(1 − t0t0)] ω = M e_z − τ;
+        then written in a frame rotating at Ω = prm[P_OMEGA] about e_z.
+
+        ``ext_f`` (n+1, 3), ``ext_m`` (n+1): extra forces on the beads and torques about the
+        frame tangents and ``ext_hook`` (3) a torque on the hook frame (thermal noise), added to
+        the elastic forces and the motor torque scaled by prm[P_ELASTIC].
+        If iprm[I_GEN] = 1 they are *generalized* forces conjugate to (r_i, θ_i) and are turned
+        into physical ones with the chart's spin connection (used for the Itô drift).
+        The motor torque is prm[P_TORQUE] or, for a speed clamp or a torque–speed law
+        (iprm[I_DRIVE]), solved from the hook balance (:func:`motor_torque`).
+        A cell body (iprm[I_ANCHOR] = ANCHOR_CELL) moves bead 0 and the hook frame with it
+        (:func:`cell_motion`) and its orientation φ (the state's last three values) at
+        φ̇ = J⁻¹(φ)(Ω − Ω_frame e_z) (:func:`flagellum.hydro.body.rotvec_rate`).
+        Returns (energy, elastic force on bead 0 (3 values), motor speed ω_hook·e_z in the lab
+        (ω_hook·m about a cell body's motor axis m), motor torque applied, motor speed relative
+        to the body, a cell body's motion (:func:`cell_motion`; else a placeholder; not
+        returned by :func:`rod_rhs`)).
+        """
+        n = iprm[I_N]
+        h = prm[P_H]
+        gpar, gperp, grot = prm[P_GPAR], prm[P_GPERP], prm[P_GROT]
+        omega_frame = prm[P_OMEGA]
+        T, E1, E2, LEN, S, GT, GTH, DR, V, A1, DM = ws
+        el = prm[P_ELASTIC]
+        if el == 0.0:  # mobility only (thermal increments): no elastic forces to compute
+            frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1)
+            GT[:, :] = 0.0
+            GTH[:] = 0.0
+            DR[:, :] = 0.0
+            energy = 0.0
+        elif GENERAL and iprm[I_SEGMENTS] == 1:
+            o = iprm[I_EXTRA] + X_SEG
+            energy = elastic(y, n, h, prm[P_A], prm[P_C], prm[P_K], prm[P_KAPPA], prm[P_TAU],
+                             prm[P_HOOKK], ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH, A1,
+                             prm[o:o + n], prm[o + n:o + 2 * n])
+            bead_gradient(n, h, prm[P_K], T, LEN, GT, DR)
+        else:
+            energy = elastic(y, n, h, prm[P_A], prm[P_C], prm[P_K], prm[P_KAPPA], prm[P_TAU],
+                             prm[P_HOOKK], ref_u, ref_e, ref_m, T, E1, E2, LEN, S, GT, GTH, A1)
+            bead_gradient(n, h, prm[P_K], T, LEN, GT, DR)
+        f0x, f0y, f0z = -DR[0, 0], -DR[0, 1], -DR[0, 2]
         for i in range(n + 1):
             for k in range(3):
-                GT[i, k] *= el
-    if iprm[I_GEN] == 1:  # physical force = generalized − chart correction of the θ-forces
+                DR[i, k] = el * DR[i, k] - ext_f[i, k]
+            GTH[i] = el * GTH[i] - ext_m[i]
+        if iprm[I_EXTRA] > 0 and el != 0.0:  # load on the free end: −F e_z + trap k (z_c − z_N) e_z
+            o = iprm[I_EXTRA]
+            DR[n, 2] -= el * end_load(y, n, prm[o + X_FORCE], prm[o + X_TRAP_K], prm[o + X_TRAP_Z])
+        if el != 1.0:
+            for i in range(n + 1):
+                for k in range(3):
+                    GT[i, k] *= el
+        if iprm[I_GEN] == 1:  # physical force = generalized − chart correction of the θ-forces
+            for i in range(1, n + 1):
+                m = ext_m[i]
+                sx, sy, sz = m * S[i, 0], m * S[i, 1], m * S[i, 2]
+                st = sx * T[i, 0] + sy * T[i, 1] + sz * T[i, 2]
+                for k, sk in enumerate((sx, sy, sz)):
+                    g = (sk - st * T[i, k]) / LEN[i]
+                    DR[i, k] += g
+                    DR[i - 1, k] -= g
+        # bead velocities (lab frame): the local drag of each bead (hydro.local)
+        anchor, zeta = iprm[I_ANCHOR], prm[P_SPHERE]
+        for i in range(n + 1):
+            tx, ty, tz, zpar, zperp, mode = L.bead_friction(T, i, n, h, gpar, gperp, anchor, zeta)
+            V[i, 0], V[i, 1], V[i, 2] = L.bead_velocity(-DR[i, 0], -DR[i, 1], -DR[i, 2], tx, ty, tz,
+                                                        zpar, zperp, mode)
+        cell = anchor == ANCHOR_CELL
+        cm = V[0]  # (unused placeholder of the same type)
+        if GENERAL and cell:  # bead 0 and the hook frame move with the cell body
+            cm = cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el)
+            energy += cm[18]
+            V[0, 0], V[0, 1], V[0, 2] = cm[10], cm[11], cm[12]
+        hydro = iprm[I_HYDRO]
+        if hydro != HYDRO_LOCAL:  # nonlocal mobility: U = M_local(y) F + ΔM F, ΔM frozen
+            _add_correction(DM, DR, V, n, NEAR_BEADS if hydro == HYDRO_BANDED else n)
+        for i in range(n + 1):  # positions in the rotating frame
+            o = 3 + 4 * i
+            ydot[o] = V[i, 0] + omega_frame * y[o + 1]
+            ydot[o + 1] = V[i, 1] - omega_frame * y[o]
+            ydot[o + 2] = V[i, 2]
+        # bond spins: γR h ω3 = −∂E/∂θ + m_th; θ̇ = ω3 − Ω t_z − s·ṫ
         for i in range(1, n + 1):
-            m = ext_m[i]
-            sx, sy, sz = m * S[i, 0], m * S[i, 1], m * S[i, 2]
-            st = sx * T[i, 0] + sy * T[i, 1] + sz * T[i, 2]
-            for k, sk in enumerate((sx, sy, sz)):
-                g = (sk - st * T[i, k]) / LEN[i]
-                DR[i, k] += g
-                DR[i - 1, k] -= g
-    # bead velocities (lab frame): the local drag of each bead (hydro.local)
-    anchor, zeta = iprm[I_ANCHOR], prm[P_SPHERE]
-    for i in range(n + 1):
-        tx, ty, tz, zpar, zperp, mode = L.bead_friction(T, i, n, h, gpar, gperp, anchor, zeta)
-        V[i, 0], V[i, 1], V[i, 2] = L.bead_velocity(-DR[i, 0], -DR[i, 1], -DR[i, 2], tx, ty, tz,
-                                                    zpar, zperp, mode)
-    cell = anchor == ANCHOR_CELL
-    cm = V[0]  # (unused placeholder of the same type)
-    if cell:  # bead 0 and the hook frame move with the cell body
-        cm = cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el)
-        energy += cm[18]
-        V[0, 0], V[0, 1], V[0, 2] = cm[10], cm[11], cm[12]
-    hydro = iprm[I_HYDRO]
-    if hydro != HYDRO_LOCAL:  # nonlocal mobility: U = M_local(y) F + ΔM F, ΔM frozen
-        _add_correction(DM, DR, V, n, NEAR_BEADS if hydro == HYDRO_BANDED else n)
-    for i in range(n + 1):  # positions in the rotating frame
-        o = 3 + 4 * i
-        ydot[o] = V[i, 0] + omega_frame * y[o + 1]
-        ydot[o + 1] = V[i, 1] - omega_frame * y[o]
-        ydot[o + 2] = V[i, 2]
-    # bond spins: γR h ω3 = −∂E/∂θ + m_th; θ̇ = ω3 − Ω t_z − s·ṫ
-    for i in range(1, n + 1):
-        o, p = 3 + 4 * i, 3 + 4 * (i - 1)
-        om = -GTH[i] / L.spin_friction(h, grot) - omega_frame * T[i, 2]
-        inv = 1.0 / LEN[i]
-        dx = (ydot[o] - ydot[p]) * inv
-        dy = (ydot[o + 1] - ydot[p + 1]) * inv
-        dz = (ydot[o + 2] - ydot[p + 2]) * inv
-        ydot[o + 3] = om - (S[i, 0] * dx + S[i, 1] * dy + S[i, 2] * dz)  # s ⟂ t
-    # hook frame: torque balance on frame 0
-    tx, ty, tz = T[0, 0], T[0, 1], T[0, 2]
-    qx, qy, qz = _cross(tx, ty, tz, GT[0, 0], GT[0, 1], GT[0, 2])
-    mx = ext_hook[0] - (qx + GTH[0] * tx)
-    my = ext_hook[1] - (qy + GTH[0] * ty)
-    if iprm[I_DRIVE] == DRIVE_TORQUE:
-        torque = el * prm[P_TORQUE]
-        mz = ext_hook[2] + el * prm[P_TORQUE] - (qz + GTH[0] * tz)
-    else:  # a clamp's or a law's drive value is no torque: its torque is added below, once
-        # solved (applying the drive value and taking it off again loses digits)
-        torque = 0.0
-        mz = ext_hook[2] - (qz + GTH[0] * tz)
-    mt = mx * tx + my * ty + mz * tz
-    zt, zp = L.hook_friction(h, gperp, grot, iprm[I_HOOK] == HOOK_CLAMPED)
-    wt = mt / zt
-    if zp == 0.0:  # clamped: turns about its tangent only
-        wx, wy, wz = wt * tx, wt * ty, wt * tz
-    else:
-        ipp = 1.0 / zp
-        wx = wt * tx + ipp * (mx - mt * tx)
-        wy = wt * ty + ipp * (my - mt * ty)
-        wz = wt * tz + ipp * (mz - mt * tz)
-    if iprm[I_DRIVE] != DRIVE_TORQUE:  # speed clamp or law: the rates are linear in the
-        # torque M e_z, and w are the rates without it: add the solved motor torque
-        torque = 0.0 if el == 0.0 else motor_torque(prm, iprm, wz, tz, zt, zp)
-        dm = torque
-        wt = dm * tz / zt
-        wx, wy, wz = wx + wt * tx, wy + wt * ty, wz + wt * tz
-        if zp != 0.0:
-            ipp = dm / zp
-            wx, wy, wz = wx - ipp * tz * tx, wy - ipp * tz * ty, wz + ipp * (1.0 - tz * tz)
-    relative = wz + prm[P_BODY] * torque
-    if cell:  # the cell's hook frame (cell_motion) replaces the rod's
-        torque, wx, wy, wz = cm[0], cm[1], cm[2], cm[3]
-        relative = cm[17]
-    wz -= omega_frame
-    ydot[0], ydot[1], ydot[2] = _cross(wx, wy, wz, y[0], y[1], y[2])
-    dtx, dty, dtz = _cross(wx, wy, wz, tx, ty, tz)
-    ydot[6] = wx * tx + wy * ty + wz * tz - (S[0, 0] * dtx + S[0, 1] * dty + S[0, 2] * dtz)
-    speed = wz + omega_frame
-    if cell:
-        ny = y.shape[0]
-        speed = cm[16]
-        ydot[ny - 3], ydot[ny - 2], ydot[ny - 1] = B.rotvec_rate(y[ny - 3], y[ny - 2], y[ny - 1],
-                                                                 cm[4], cm[5], cm[6] - omega_frame)
-    return energy, f0x, f0y, f0z, speed, torque, relative, cm
+            o, p = 3 + 4 * i, 3 + 4 * (i - 1)
+            om = -GTH[i] / L.spin_friction(h, grot) - omega_frame * T[i, 2]
+            inv = 1.0 / LEN[i]
+            dx = (ydot[o] - ydot[p]) * inv
+            dy = (ydot[o + 1] - ydot[p + 1]) * inv
+            dz = (ydot[o + 2] - ydot[p + 2]) * inv
+            ydot[o + 3] = om - (S[i, 0] * dx + S[i, 1] * dy + S[i, 2] * dz)  # s ⟂ t
+        # hook frame: torque balance on frame 0
+        tx, ty, tz = T[0, 0], T[0, 1], T[0, 2]
+        qx, qy, qz = _cross(tx, ty, tz, GT[0, 0], GT[0, 1], GT[0, 2])
+        mx = ext_hook[0] - (qx + GTH[0] * tx)
+        my = ext_hook[1] - (qy + GTH[0] * ty)
+        if iprm[I_DRIVE] == DRIVE_TORQUE:
+            torque = el * prm[P_TORQUE]
+            mz = ext_hook[2] + el * prm[P_TORQUE] - (qz + GTH[0] * tz)
+        else:  # a clamp's or a law's drive value is no torque: its torque is added below, once
+            # solved (applying the drive value and taking it off again loses digits)
+            torque = 0.0
+            mz = ext_hook[2] - (qz + GTH[0] * tz)
+        mt = mx * tx + my * ty + mz * tz
+        zt, zp = L.hook_friction(h, gperp, grot, iprm[I_HOOK] == HOOK_CLAMPED)
+        wt = mt / zt
+        if zp == 0.0:  # clamped: turns about its tangent only
+            wx, wy, wz = wt * tx, wt * ty, wt * tz
+        else:
+            ipp = 1.0 / zp
+            wx = wt * tx + ipp * (mx - mt * tx)
+            wy = wt * ty + ipp * (my - mt * ty)
+            wz = wt * tz + ipp * (mz - mt * tz)
+        if iprm[I_DRIVE] != DRIVE_TORQUE:  # speed clamp or law: the rates are linear in the
+            # torque M e_z, and w are the rates without it: add the solved motor torque
+            torque = 0.0 if el == 0.0 else motor_torque(prm, iprm, wz, tz, zt, zp)
+            dm = torque
+            wt = dm * tz / zt
+            wx, wy, wz = wx + wt * tx, wy + wt * ty, wz + wt * tz
+            if zp != 0.0:
+                ipp = dm / zp
+                wx, wy, wz = wx - ipp * tz * tx, wy - ipp * tz * ty, wz + ipp * (1.0 - tz * tz)
+        relative = wz + prm[P_BODY] * torque
+        if GENERAL and cell:  # the cell's hook frame (cell_motion) replaces the rod's
+            torque, wx, wy, wz = cm[0], cm[1], cm[2], cm[3]
+            relative = cm[17]
+        wz -= omega_frame
+        ydot[0], ydot[1], ydot[2] = _cross(wx, wy, wz, y[0], y[1], y[2])
+        dtx, dty, dtz = _cross(wx, wy, wz, tx, ty, tz)
+        ydot[6] = wx * tx + wy * ty + wz * tz - (S[0, 0] * dtx + S[0, 1] * dty + S[0, 2] * dtz)
+        speed = wz + omega_frame
+        if GENERAL and cell:
+            ny = y.shape[0]
+            speed = cm[16]
+            ydot[ny - 3], ydot[ny - 2], ydot[ny - 1] = B.rotvec_rate(y[ny - 3], y[ny - 2], y[ny - 1],
+                                                                     cm[4], cm[5], cm[6] - omega_frame)
+        if GENERAL:
+            return energy, f0x, f0y, f0z, speed, torque, relative, cm
+        # (no cell-body motion to return: a returned array costs a box per Python call)
+        return energy, f0x, f0y, f0z, speed, torque, relative
+    return rhs
 
 
-@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def colored_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl, ku,
-                     ab, scale, y_work, f_work, color, lo, hi):
-    """Finite-difference Jacobian of :func:`rhs` into LU-ready band storage ``ab``
-    (``ab[j, kl+ku+i−j] = scale · ∂f_i/∂y_j``), one right-hand side per colour.
+rhs = _rhs_kernel(True)
+#: :func:`rhs` for a filament without a cell body and without per-joint intrinsic shapes
+#: (iprm[I_ANCHOR] ≠ ANCHOR_CELL, iprm[I_SEGMENTS] = 0; :func:`specialised`): the same
+#: numbers bit for bit (tests/test_rod.py), less to compile
+rod_rhs = _rhs_kernel(False)
 
-    Column j can change only rows lo[j] … hi[j] (within the band); columns of equal
-    ``color`` have disjoint row ranges and are perturbed together (Curtis, Powell & Reid).
-    With the frozen nonlocal mobility (``HYDRO_FROZEN``) this is the Jacobian of the banded
-    operator (``HYDRO_BANDED``: the near-field blocks of ΔM), ``f0`` then recomputed with it.
-    """
-    n = y.shape[0]
-    kv = kl + ku
-    ab[:, :] = 0.0
-    ip, base = iprm.copy(), f0.copy()
-    if ip[I_HYDRO] == HYDRO_FROZEN:
-        ip[I_HYDRO] = HYDRO_BANDED
-        rhs(y, base, prm, ip, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws)
-    for g in range(color.max() + 1):
-        y_work[:] = y
-        for j in range(n):
-            if color[j] == g:
-                y_work[j] += 1e-7 * max(1.0, abs(y[j]))
-        rhs(y_work, f_work, prm, ip, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws)
-        for j in range(n):
-            if color[j] == g:
-                inv = scale / (y_work[j] - y[j])
-                for i in range(lo[j], hi[j] + 1):
-                    ab[j, kv + i - j] = (f_work[i] - base[i]) * inv
+
+def specialised(iprm) -> bool:
+    """Whether :func:`rod_rhs` serves the model of ``iprm`` (no cell body, no per-joint shape)."""
+    return int(iprm[I_ANCHOR]) != ANCHOR_CELL and int(iprm[I_SEGMENTS]) == 0
+
+
+def _jacobian_kernel(f):
+    """:func:`colored_jacobian` of the right-hand side kernel ``f`` (:func:`rhs` or
+    :func:`rod_rhs`)."""
+
+    @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+    def colored_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl, ku,
+                         ab, scale, y_work, f_work, color, lo, hi):
+        """Finite-difference Jacobian of :func:`rhs` into LU-ready band storage ``ab``
+        (``ab[j, kl+ku+i−j] = scale · ∂f_i/∂y_j``), one right-hand side per colour.
+
+        Column j can change only rows lo[j] … hi[j] (within the band); columns of equal
+        ``color`` have disjoint row ranges and are perturbed together (Curtis, Powell & Reid).
+        With the frozen nonlocal mobility (``HYDRO_FROZEN``) this is the Jacobian of the banded
+        operator (``HYDRO_BANDED``: the near-field blocks of ΔM), ``f0`` then recomputed with it.
+        """
+        n = y.shape[0]
+        kv = kl + ku
+        ab[:, :] = 0.0
+        ip, base = iprm.copy(), f0.copy()
+        if ip[I_HYDRO] == HYDRO_FROZEN:
+            ip[I_HYDRO] = HYDRO_BANDED
+            f(y, base, prm, ip, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws)
+        for g in range(color.max() + 1):
+            for j in range(n):  # (an element loop: a slice copy compiles Numba's shape-error text)
+                y_work[j] = y[j]
+            for j in range(n):
+                if color[j] == g:
+                    y_work[j] += 1e-7 * max(1.0, abs(y[j]))
+            f(y_work, f_work, prm, ip, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws)
+            for j in range(n):
+                if color[j] == g:
+                    inv = scale / (y_work[j] - y[j])
+                    for i in range(lo[j], hi[j] + 1):
+                        ab[j, kv + i - j] = (f_work[i] - base[i]) * inv
+    return colored_jacobian
+
+
+colored_jacobian = _jacobian_kernel(rhs)
+#: :func:`colored_jacobian` of :func:`rod_rhs`
+rod_colored_jacobian = _jacobian_kernel(rod_rhs)
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")

@@ -130,6 +130,11 @@ class RodModel:
                 extra += [f.kappa0] * self.n + [f.torsion] * self.n
             self.iprm[K.I_EXTRA], self.iprm[K.I_SEGMENTS] = len(self.prm), int(self.segments)
             self.prm = np.concatenate([self.prm, extra])
+        # the kernels of this model: without a cell body or per-joint shapes the pruned ones
+        # (the same numbers, less to compile; rod.kernels.rod_rhs)
+        special = K.specialised(self.iprm)
+        self.rhs_kernel = K.rod_rhs if special else K.rhs
+        self.jacobian_kernel = K.rod_colored_jacobian if special else K.colored_jacobian
         self.last_torque = self.prm[K.P_TORQUE] if self.motor.drive == "torque" else 0.0
         self.last_relative_motor_speed = 0.0  #: motor speed relative to the body at the last rhs call
 
@@ -292,10 +297,12 @@ class RodModel:
                 y[:3] += rng.normal(0.0, 0.1, 3)
                 self.refresh_mobility(y, force=True)  # no-op for the local model
                 f0 = np.zeros(ny)
-                K.rhs(y, f0, prm, self.iprm, self.ref_u, self.ref_e, self.ref_m, self._zf,
-                      self._zm, self._zh, self._ws)
-                K.band_jacobian(y, f0, prm, self.iprm, self.ref_u, self.ref_e, self.ref_m, self._zf,
-                                self._zm, self._zh, self._ws, kl, ku, ab, 1.0, np.zeros(ny), np.zeros(ny))
+                self.rhs_kernel(y, f0, prm, self.iprm, self.ref_u, self.ref_e, self.ref_m,
+                                self._zf, self._zm, self._zh, self._ws)
+                # the full band's colouring (numpy: no kernel of its own to compile)
+                self.jacobian_kernel(y, f0, prm, self.iprm, self.ref_u, self.ref_e, self.ref_m,
+                                     self._zf, self._zm, self._zh, self._ws, kl, ku, ab, 1.0,
+                                     np.zeros(ny), np.zeros(ny), *K.band_colors.py_func(ny, kl, ku))
                 nz |= ab != 0.0
             self.set_charts(*charts)
             self._ws[-1][:], self._frozen = frozen
@@ -347,10 +354,11 @@ class RodModel:
         self.prm[K.P_TORQUE] = self.motor(t)
         if self.end_load is not None:
             self.prm[self.iprm[K.I_EXTRA] + K.X_TRAP_Z] = self.trap_centre(t)
-        res = K.rhs(y, ydot, self.prm, self.iprm, self.ref_u, self.ref_e, self.ref_m,
-                    self._zf if noise_f is None else noise_f,
-                    self._zm if noise_m is None else noise_m, self._zh, self._ws)
-        self.last_force[:] = res[1:4]
+        res = self.rhs_kernel(y, ydot, self.prm, self.iprm, self.ref_u, self.ref_e, self.ref_m,
+                              self._zf if noise_f is None else noise_f,
+                              self._zm if noise_m is None else noise_m, self._zh, self._ws)
+        force = self.last_force
+        force[0], force[1], force[2] = res[1], res[2], res[3]  # (a slice from a tuple: 1 µs)
         self.last_energy, self.last_motor_speed, self.last_torque = res[0], res[4], res[5]
         self.last_relative_motor_speed = res[6]
         if self.cell:

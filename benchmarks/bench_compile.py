@@ -1,0 +1,90 @@
+"""The compile pause: the first run after an install against later runs (docs/benchmarks.md).
+
+Every case starts fresh interpreters with their own ``NUMBA_CACHE_DIR`` (a new, empty folder:
+the state right after ``pip install``) and times, in each, the import and the first 0.01-s
+run (N = 50, M = 1 pN·µm from rest) of each solver named, then a second run of the same
+(the run itself, the kernels loaded):
+
+* ``cold``: empty cache, background warm-up off (``FLAGELLUM_WARMUP=0``): CVODE, then the
+  Numba BDF, then the implicit scheme in one process — each first run compiles;
+* ``cold_with_warmup``: empty cache, warm-up on: a first CVODE run (its stepper starts
+  ``python -m flagellum.warmup bdf implicit`` in the background); once that has finished, a
+  new process runs the BDF and the implicit scheme;
+* ``cached``: the cache filled: a new process runs each solver (the loads from the cache).
+
+Run: OPENBLAS_NUM_THREADS=1 python benchmarks/bench_compile.py
+Writes benchmarks/bench_compile.json.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).parent
+CHILD = r"""
+import json, sys, time
+t0 = time.perf_counter()
+from flagellum import Motor, Params, Simulator, SolverOptions
+out = {"import": time.perf_counter() - t0}
+for method in sys.argv[1:]:
+    for k in ("first", "second"):
+        t = time.perf_counter()
+        sim = Simulator(Params(), Motor(1.0), thermal=method == "implicit",
+                        seed=1 if method == "implicit" else None,
+                        solver=SolverOptions(method=method))
+        sim.run(0.01, save_every=1e-3, progress=False)
+        out[f"{method}_{k}"] = time.perf_counter() - t
+print(json.dumps(out))
+"""
+
+
+def child(cache: str, methods, warmup: bool) -> dict:
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache, FLAGELLUM_WARMUP="1" if warmup else "0")
+    t = time.perf_counter()
+    res = subprocess.run([sys.executable, "-c", CHILD, *methods], env=env, capture_output=True,
+                         text=True, check=True)
+    out = json.loads(res.stdout.strip().splitlines()[-1])
+    out["process"] = time.perf_counter() - t
+    return out
+
+
+def wait_for_warmup(cache: str, limit: float = 900.0) -> float:
+    """Seconds until the background warm-up of ``cache`` has released its lock."""
+    code = ("from flagellum.integrate.cache import lock_path; print(lock_path())")
+    lock = subprocess.run([sys.executable, "-c", code], env=dict(os.environ, NUMBA_CACHE_DIR=cache),
+                          capture_output=True, text=True, check=True).stdout.strip()
+    t = time.perf_counter()
+    while os.path.exists(lock) and time.perf_counter() - t < limit:
+        time.sleep(0.5)
+    return time.perf_counter() - t
+
+
+def load_average() -> float:
+    return os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+
+
+def main() -> None:
+    out = {"load_average": load_average(), "run": "N = 50, M = 1, 0.01 s from rest"}
+    with tempfile.TemporaryDirectory() as a, tempfile.TemporaryDirectory() as b:
+        out["cold"] = child(a, ("cvode", "bdf", "implicit"), warmup=False)
+        print("cold", out["cold"], flush=True)
+        first = child(b, ("cvode",), warmup=True)
+        waited = wait_for_warmup(b)
+        later = child(b, ("bdf", "implicit"), warmup=True)
+        out["cold_with_warmup"] = {"first_process": first, "waited_for_warmup_after_it": waited,
+                                   "next_process": later}
+        print("cold_with_warmup", out["cold_with_warmup"], flush=True)
+        out["cached"] = {m: child(a, (m,), warmup=False) for m in ("cvode", "bdf", "implicit")}
+        print("cached", out["cached"], flush=True)
+    out["load_average_end"] = load_average()
+    (HERE / "bench_compile.json").write_text(json.dumps(out, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,49 @@
+"""Compile (fill Numba's cache with) the kernels of every solver: ``python -m flagellum.warmup
+[METHOD ...]``. Started in the background by :func:`flagellum.integrate.cache.warm_in_background`
+when a run finds the cache cold; see there."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+
+from .integrate.cache import METHODS
+
+
+def warm(methods=None, segments: int = 20) -> list[str]:
+    """Compile (or load) the kernels of ``methods`` (default: all of
+    :data:`~flagellum.integrate.cache.METHODS`) by a few steps of each on a filament of
+    ``segments`` segments (the kernels' Numba types do not depend on the size); returns the
+    methods run."""
+    from .motor import Motor
+    from .params import Filament, Params
+    from .simulator import Simulator, SolverOptions
+
+    chosen = [m for m in METHODS if methods is None or m in methods]
+    params = Params(Filament(segment_length=10.0 / segments))
+    for method in chosen:
+        thermal = method == "implicit"
+        sim = Simulator(params, Motor(1.0), thermal=thermal, seed=1 if thermal else None,
+                        solver=SolverOptions(method=method))
+        sim.run(4e-4, save_every=2e-4, progress=False)
+    return chosen
+
+
+def main(argv: list[str]) -> None:
+    lock = None
+    if argv[:1] == ["--lock"]:
+        lock, argv = argv[1], argv[2:]
+    if hasattr(os, "nice"):
+        with contextlib.suppress(OSError):
+            os.nice(10)  # behind the user's own run
+    try:
+        warm(argv or None)
+    finally:
+        if lock:
+            with contextlib.suppress(OSError):
+                os.unlink(lock)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

@@ -161,8 +161,17 @@ def test_fluid_force_on_filament_and_body_balances(boundary):
     x = positions(y)
     a = boundary.sphere_radius or 0.0
     free = L.FREE if boundary.anchor == "free" else L.AXIAL
-    M_att = effective_mobility(x, p.fluid.filament_radius, p.fluid.viscosity, L.FREE, a)
-    f = np.linalg.solve(M_att, U).reshape(-1, 3)  # force on the fluid per bead (bead 0: + sphere)
+    if free == L.FREE:
+        M_att = effective_mobility(x, p.fluid.filament_radius, p.fluid.viscosity, L.FREE, a)
+        f = np.linalg.solve(M_att, U).reshape(-1, 3)  # force on the fluid per bead (bead 0: + sphere)
+    else:  # the load sphere (at x_0 + a e_z) slides with bead 0 and does not turn
+        from flagellum.hydro.dynamics import grand_mobility, sphere_centre
+
+        big = grand_mobility(x, p.fluid.filament_radius, p.fluid.viscosity, sphere_centre(x, a), a)
+        k = 3 * len(x)
+        P = np.zeros((k + 6, k))  # bead velocities → (beads, sphere V = U_0, Ω = 0)
+        P[:k], P[k:k + 3, :3] = np.eye(k), np.eye(3)
+        f = (P.T @ np.linalg.solve(big, P @ U)).reshape(-1, 3)
     total = f.sum(0)
     scale = np.abs(f).max()
     assert scale > 1e-3

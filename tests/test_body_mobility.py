@@ -124,5 +124,7 @@ def test_body_far_from_the_filament_decouples():
         Rsep = Rh + Js.T @ Rs[:3, :3] @ Js + np.pad(Rs[3:, 3:], ((3, 0), (3, 0)))
         errs.append(np.abs(coupled - Rsep)[:3, :3].max() / np.abs(Rsep[:3, :3]).max())
         del m
-    assert errs[2] < 0.01
-    assert errs[0] / errs[1] == pytest.approx(10.0, rel=0.3) and errs[1] / errs[2] == pytest.approx(10.0, rel=0.3)
+    # measured: 6.9 %, 0.94 %, 0.098 %: 1/D once the helix (4 µm) is small against D
+    assert errs[2] < 0.002
+    assert errs[0] > errs[1] > errs[2]
+    assert errs[1] / errs[2] == pytest.approx(10.0, rel=0.1)

@@ -179,49 +179,46 @@ def _balance(model, y, t=0.0):
     return F, T, scale, bm, wh
 
 
+DRIVES = {"torque": Motor(0.8), "speed": Motor(drive="speed", speed=600.0),
+          "law": Motor(drive="law", law=MotorLaw.e_coli())}
+
+
+def _check_balance(model, drive, tol):
+    """Force and torque on the cell below ``tol`` of the single terms at a random state; the
+    relative motor speed is (ω_hook − Ω)·m, the clamp holds it and the law's torque is on the
+    law. Returns (state, body motion)."""
+    y = _state(model, np.random.default_rng(7))
+    F, T, scale, bm, wh = _balance(model, y)
+    assert np.abs(F).max() < tol * scale
+    assert np.abs(T).max() < tol * scale * 5.0
+    assert bm["relative"] == pytest.approx((wh - bm["angular_velocity"]) @ bm["motor_axis"], rel=1e-6)
+    if drive == "speed":
+        assert bm["relative"] == pytest.approx(600.0, rel=1e-9)
+    if drive == "law":
+        assert bm["torque"] == pytest.approx(float(MotorLaw.e_coli()(bm["relative"])), abs=1e-9)
+    return y, bm
+
+
 @pytest.mark.parametrize("boundary", BOUNDARIES, ids=IDS)
-@pytest.mark.parametrize("drive", ["torque", "speed", "law"])
+@pytest.mark.parametrize("drive", list(DRIVES))
 def test_cell_is_force_and_torque_free(boundary, drive):
     """The elastic forces and torques are internal and the motor's torque acts between the
     hook and the body: the fluid's total force and torque on the cell vanish to round-off,
     for random states (bent, twisted, the body turned), every hook and drive."""
-    motor = {"torque": Motor(0.8), "speed": Motor(drive="speed", speed=600.0),
-             "law": Motor(drive="law", law=MotorLaw.e_coli())}[drive]
-    m = RodModel(Params(), motor, boundary)
-    y = _state(m, np.random.default_rng(7))
-    F, T, scale, bm, wh = _balance(m, y)
-    assert np.abs(F).max() < 1e-11 * scale
-    assert np.abs(T).max() < 1e-11 * scale * 5.0
-    # the relative motor speed is (ω_hook − Ω)·m, and the clamp holds it
-    assert bm["relative"] == pytest.approx((wh - bm["angular_velocity"]) @ bm["motor_axis"], rel=1e-6)
-    if drive == "speed":
-        assert bm["relative"] == pytest.approx(600.0, rel=1e-9)
-    if drive == "law":
-        assert bm["torque"] == pytest.approx(float(MotorLaw.e_coli()(bm["relative"])), abs=1e-9)
+    _check_balance(RodModel(Params(), DRIVES[drive], boundary), drive, 1e-11)
 
 
 @pytest.mark.parametrize("boundary", BOUNDARIES, ids=IDS)
-@pytest.mark.parametrize("drive", ["torque", "speed", "law"])
+@pytest.mark.parametrize("drive", list(DRIVES))
 def test_cell_with_sbt_is_force_and_torque_free(boundary, drive):
     """The same balance with the nonlocal mobility: the body's and the beads' velocities of the
     kernel (ΔM built at this state) imply, through the coupled mobility of beads + body built
     anew (hydro.dynamics.cell_mobility), a fluid force and torque on the cell that vanish to
-    round-off; the clamp holds the motor speed relative to the body and the law's torque is
-    on the law."""
-    motor = {"torque": Motor(0.8), "speed": Motor(drive="speed", speed=600.0),
-             "law": Motor(drive="law", law=MotorLaw.e_coli())}[drive]
-    m = RodModel(Params(), motor, boundary, hydrodynamics=Hydrodynamics("sbt", refresh=0.0))
-    y = _state(m, np.random.default_rng(7))
-    F, T, scale, bm, wh = _balance(m, y)
-    assert np.abs(F).max() < 1e-10 * scale
-    assert np.abs(T).max() < 1e-10 * scale * 5.0
-    assert bm["relative"] == pytest.approx((wh - bm["angular_velocity"]) @ bm["motor_axis"], rel=1e-6)
-    if drive == "speed":
-        assert bm["relative"] == pytest.approx(600.0, rel=1e-9)
-    if drive == "law":
-        assert bm["torque"] == pytest.approx(float(MotorLaw.e_coli()(bm["relative"])), abs=1e-9)
+    round-off; the clamp and the law stay exact."""
+    m = RodModel(Params(), DRIVES[drive], boundary, hydrodynamics=Hydrodynamics("sbt", refresh=0.0))
+    y, bm = _check_balance(m, drive, 1e-10)
     # the nonlocal flow does change the motion
-    local = RodModel(Params(), motor, boundary)
+    local = RodModel(Params(), DRIVES[drive], boundary)
     local.set_charts(*m.charts())
     loc = local.body_motion(0.0, y)
     assert np.linalg.norm(loc["velocity"] - bm["velocity"]) > 0.05 * np.linalg.norm(loc["velocity"])

@@ -333,3 +333,18 @@ def test_fig6_and_fig8_take_the_nonlocal_mobility():
     job = {"kind": "lambda", "variant": v, "m_hat": -1.0, "torque": -0.5, "hydrodynamics": SBT.to_dict()}
     want = linear_stability(fig8.variant_params(v), -0.5, hydrodynamics=SBT).lambda_
     assert fig8._job(job)["lambda"] == pytest.approx(want, rel=1e-9)
+
+
+@pytest.mark.slow
+@pytest.mark.ci
+def test_load_sphere_at_the_filament_end_raises_the_sbt_threshold():
+    """With the load sphere at the filament's end (centre x_0 + a e_z, not overlapping the
+    filament) the SBT threshold grows with 1/a as the paper's load-sphere line does: at
+    M = 1.62 pN·µm, above the anchored M_c1 = 1.585 pN·µm (test_sbt_critical_torque_*), the
+    aligned state on a sphere of a = 2 µm is stable, and at 1.70 pN·µm it is not, so
+    1.62 < M_c1(a = 2 µm) < 1.70 (critical_torque: 1.6505 pN·µm, docs/hydrodynamics.md)."""
+    from flagellum.analysis.stability import linear_stability
+
+    b = Boundary("sphere", sphere_radius=2.0)
+    assert linear_stability(Params(), 1.62, b, hydrodynamics=SBT).lambda_ < 0
+    assert linear_stability(Params(), 1.70, b, hydrodynamics=SBT).lambda_ > 0

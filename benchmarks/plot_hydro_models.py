@@ -8,8 +8,8 @@ figure of docs/hydrodynamics.md.
     to and past each model's buckling threshold M_c1 (computed here by
     :func:`flagellum.analysis.stability.critical_torque`), with the rigid-helix slopes.
 (b) The load-sphere line M_c1(1/a): RFT and SBT thresholds by linear stability, read from
-    the tables of docs/stability.md (RFT) and docs/hydrodynamics.md (SBT: a sphere centred
-    on bead 0, whose geometry is not trustworthy with SBT — see there).
+    the tables of docs/stability.md (RFT) and docs/hydrodynamics.md (SBT: the sphere at the
+    filament's end, centred at x_0 + a e_z, coupled by the grand mobility of beads + body).
 """
 
 from __future__ import annotations
@@ -25,8 +25,8 @@ from flagellum.params import Params
 
 #: (1/a [1/µm], M_c1 [pN·µm]) by linear stability, N = 50, free hook: docs/stability.md (RFT)
 #: and docs/hydrodynamics.md, "Load sphere" (SBT)
-LOAD_SPHERE = {"rft": [(0.0, 1.066), (0.5, 1.552), (1.0, 2.006)],
-               "sbt": [(0.0, 1.585), (0.5, 1.566), (1.0, 1.873)]}
+LOAD_SPHERE = {"rft": [(0.0, 1.066), (0.5, 1.552), (1.0, 2.006), (2.0, 2.865)],
+               "sbt": [(0.0, 1.585), (0.5, 1.651), (1.0, 1.946), (2.0, 2.595)]}
 
 
 def main(argv=None):
@@ -68,7 +68,7 @@ def main(argv=None):
     axs[0].legend(fontsize=7)
     axs[1].axhspan(1.0, 1.5, color="0.9", zorder=0)
     axs[1].set(xlabel="1/a [1/µm]", ylabel="M_c1 [pN·µm]",
-               title="(b) load sphere of radius a (centred on bead 0)")
+               title="(b) load sphere of radius a")
     axs[1].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(a.out, dpi=130)

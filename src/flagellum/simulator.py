@@ -128,18 +128,13 @@ class State:
 def check_cell(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynamics,
                thermal: bool, boundary: Boundary | None) -> None:
     """What a cell body (``boundary.body_radius``) does not combine with yet: thermal noise
-    (the body's Brownian forces and torques are not implemented), the nonlocal mobility (the
-    body's Stokeslet and rotlet fields are not coupled to the filament) and the fixed-step
-    solver (its Newton iteration takes the banded Jacobian, which leaves out the body's
-    coupling)."""
+    (the body's Brownian forces and torques are not implemented) and the fixed-step solver
+    (its Newton iteration takes the banded Jacobian, which leaves out the body's coupling)."""
     if boundary is None or not boundary.is_cell:
         return
     if thermal:
         raise ParameterError("thermal", True, "off with a cell body (--body-radius): its "
                              "thermal noise is not implemented")
-    if not hydrodynamics.is_local:
-        raise ParameterError("hydrodynamics", hydrodynamics.model, "'rft' with a cell body "
-                             "(--body-radius): the body's flow field is not coupled to sbt")
     if solver.method not in (None, "cvode"):
         raise ParameterError("method", solver.method, "'cvode' with a cell body (--body-radius)")
 

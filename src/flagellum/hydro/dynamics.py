@@ -10,19 +10,28 @@ rebuilt when a bead has moved by more than ``refresh`` from them (in the splitti
 Tornberg & Shelley, J. Comput. Phys. 196, 8 (2004)). The bond spins and the hook frame keep
 their local friction.
 
-M_eff is the mobility of the beads under the anchor's constraints, from the resistance of the
-filament plus (load sphere, free swimmer's body) a sphere of radius a centred on bead 0 and
-moving with it: the sphere's flow at bead k is G(x_k − x_0) F_s and, by reciprocity (Faxén's
-law), the filament's flow moves the sphere by Σ G F_k, with
-G(r) = [(1 + rr/r²)/r + a²/3 (1 − 3rr/r²)/r³]/8πη for r ≥ a (the exact flow of a translating
-sphere) and 1/(6πηa) inside it. Constrained bead-0 components (anchored: all three; load
-sphere: x, y) are removed in the resistance form, i.e. their reaction forces do act on the
-fluid.
+M_eff is the mobility of the beads under the anchor's constraints, from the grand mobility
+of the filament's beads plus (load sphere, free swimmer, cell body) a rigid body whose force
+and torque are unknowns too (:func:`grand_mobility`). The filament leaves the body at its
+surface: a load sphere or a free swimmer's sphere of radius a is centred at x_0 + a e_z
+(bead 0 the motor point on its rear pole), a cell body at x_0 − d (d its centre → motor
+offset, :mod:`flagellum.hydro.body`). The body's flow at a bead r from its centre is
+G_t(r) F + G_r(r) T: for a sphere the exact flow of a translating sphere,
+G_t = [(1 + r̂r̂)/r + a²/3 (1 − 3r̂r̂)/r³]/8πη (the Stokeslet with its finite-size term
+(1 + a²/6 ∇²)), and of a rotating one, G_r T = T × r/8πηr³ (rigid-body motion inside); for a
+prolate spheroid its Stokeslet and rotlet. By reciprocity the beads' flow moves the body by
+the transposed blocks: Faxén's laws, translation from the mean flow (1 + a²/6 ∇²)u and
+rotation from half the vorticity. Constrained components (anchored: bead 0; load sphere:
+bead 0's x, y and the sphere's rotation) are removed in the resistance form, i.e. their
+reaction forces and torques do act on the fluid. Neglected: the filament's finite radius in
+the body's flow (r² against the body's a²), the spheroid's finite-size (quadrupole) terms and
+its stresslet, and the strain part of Faxén's law for a spheroid.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -67,7 +76,8 @@ def _fill_local(T, n, h, gpar, gperp, anchor, zeta, M):
 
 def sphere_coupling(r: np.ndarray, a: float, viscosity: float) -> np.ndarray:
     """(m, 3, 3) blocks G(r) of a translating sphere of radius a at offsets r (m, 3): the flow
-    at r per force on the sphere, and (Faxén's law) the sphere's velocity per point force at r."""
+    at r per force on the sphere, and (Faxén's law) the sphere's velocity per point force at r.
+    Outside: [(1 + r̂r̂)/r + a²/3 (1 − 3r̂r̂)/r³]/8πη; inside: rigid motion, 1/(6πηa)."""
     d = np.linalg.norm(r, axis=1)
     out = np.empty((len(r), 3, 3))
     inside = d < a
@@ -79,24 +89,87 @@ def sphere_coupling(r: np.ndarray, a: float, viscosity: float) -> np.ndarray:
     return out
 
 
+def _skew(r: np.ndarray) -> np.ndarray:
+    """(m, 3, 3) matrices [r]× (so that [r]× v = r × v)."""
+    z = np.zeros(len(r))
+    return np.stack([np.stack([z, -r[:, 2], r[:, 1]], -1), np.stack([r[:, 2], z, -r[:, 0]], -1),
+                     np.stack([-r[:, 1], r[:, 0], z], -1)], -2)
+
+
+def body_flow(r: np.ndarray, radius: float, viscosity: float, aspect: float = 1.0):
+    """(G_t, G_r), each (m, 3, 3): the flow at offsets r (m, 3) from a body's centre per unit
+    force (G_t) and per unit torque (G_r, u = T × r / 8πη|r|³) on the body. Sphere
+    (``aspect`` 1): the exact flows of a translating and a rotating sphere of ``radius`` a
+    (:func:`sphere_coupling`; rigid-body motion inside). Prolate spheroid: its Stokeslet and
+    rotlet at the centre, with |r| bounded below by the equatorial radius (no finite-size
+    terms). By reciprocity, G_tᵀ and G_rᵀ give the body's velocity and angular velocity per
+    point force at r (Faxén: the mean flow, half the vorticity)."""
+    r = np.asarray(r, float)
+    d = np.linalg.norm(r, axis=1)
+    c8 = 8 * math.pi * viscosity
+    if aspect == 1.0:
+        gt = sphere_coupling(r, radius, viscosity)
+    else:
+        de = np.maximum(d, radius)[:, None, None]
+        rr = r[:, :, None] * r[:, None, :] / (de * de)
+        gt = (np.eye(3) + rr) / (c8 * de)
+    gr = -_skew(r) / (c8 * np.maximum(d, radius)[:, None, None] ** 3)
+    return gt, gr
+
+
+def grand_mobility(x, radius, viscosity, centre, body_radius, body_aspect=1.0, axis=(0.0, 0.0, 1.0),
+                   body=None) -> np.ndarray:
+    """Mobility (3(n+1) + 6 square) of the beads x (filament radius ``radius``) and a rigid
+    body centred at ``centre``: (U_0 … U_n, V, Ω) = M (F_0 … F_n, F_B, T_B). Bead–bead:
+    :func:`flagellum.hydro.sbt.mobility`; body–bead: :func:`body_flow` and its transpose;
+    body–body: the inverse of its Stokes resistance (:func:`flagellum.hydro.body.body_resistance`,
+    equatorial semi-axis ``body_radius``, polar ``body_aspect``·a along ``axis``; ``body``: a
+    :class:`~flagellum.hydro.body.BodyResistance` instead)."""
+    from .body import body_resistance
+
+    n1 = len(x)
+    m = 3 * n1
+    gt, gr = body_flow(np.asarray(x, float) - np.asarray(centre, float), body_radius, viscosity,
+                       body_aspect)
+    rb = body or body_resistance(body_radius, body_aspect, viscosity)
+    e = np.asarray(axis, float)
+    ee = np.outer(e, e) / (e @ e)
+    big = np.zeros((m + 6, m + 6))
+    big[:m, :m] = sbt.mobility(x, radius, viscosity)
+    big[:m, m:m + 3], big[:m, m + 3:] = gt.reshape(m, 3), gr.reshape(m, 3)
+    big[m:m + 3, :m], big[m + 3:, :m] = gt.reshape(m, 3).T, gr.reshape(m, 3).T
+    big[m:m + 3, m:m + 3] = ee / rb.translation_axial + (np.eye(3) - ee) / rb.translation_transverse
+    big[m + 3:, m + 3:] = ee / rb.rotation_axial + (np.eye(3) - ee) / rb.rotation_transverse
+    return big
+
+
+def sphere_centre(x: np.ndarray, sphere_radius: float) -> np.ndarray:
+    """Centre of a load sphere or a free swimmer's sphere: x_0 + a e_z (the filament leaves its
+    rear pole along −e_z)."""
+    return np.asarray(x[0], float) + np.array([0.0, 0.0, sphere_radius])
+
+
 def effective_mobility(x, radius, viscosity, anchor, sphere_radius=0.0) -> np.ndarray:
     """Nonlocal bead mobility (3(n+1) square) under the anchor's constraints: U = M_eff F with
     F the applied bead forces (see the module docstring). ``anchor`` a code of
-    :mod:`flagellum.hydro.local` (FIXED, AXIAL, FREE)."""
+    :mod:`flagellum.hydro.local` (FIXED, AXIAL, FREE). With a sphere (AXIAL, FREE and
+    ``sphere_radius`` > 0) it translates with bead 0; on a load sphere (AXIAL) it does not
+    turn (the paper's load sphere), a free swimmer's sphere turns freely (torque-free: its
+    rotation from the filament's vorticity)."""
     n1 = len(x)
-    M = sbt.mobility(x, radius, viscosity)
-    if anchor != L.FIXED and sphere_radius > 0:  # add the sphere as node n1, moving with bead 0
-        G = sphere_coupling(x - x[0], sphere_radius, viscosity).transpose(0, 2, 1).reshape(3 * n1, 3)
-        big = np.zeros((3 * n1 + 3, 3 * n1 + 3))
-        big[:3 * n1, :3 * n1] = M
-        big[:3 * n1, 3 * n1:] = G
-        big[3 * n1:, :3 * n1] = G.T
-        big[3 * n1:, 3 * n1:] = np.eye(3) / (6 * math.pi * viscosity * sphere_radius)
-        R = _attach(np.linalg.inv(big), n1)
+    if anchor != L.FIXED and sphere_radius > 0:
+        big = grand_mobility(x, radius, viscosity, sphere_centre(x, sphere_radius), sphere_radius)
+        m = 3 * n1 + 3
+        if anchor == L.FREE:  # torque-free: its rotation leaves the resistance problem
+            R = np.linalg.inv(big[:m, :m])
+        else:  # held against rotation: Ω = 0, the reaction torque acts on the fluid
+            R = np.linalg.inv(big)[:m, :m]
+        R = _attach(R, n1)
         free = moving_components(anchor, n1)
         out = np.zeros((3 * n1, 3 * n1))
         out[np.ix_(free, free)] = np.linalg.inv(R[np.ix_(free, free)])
         return out
+    M = sbt.mobility(x, radius, viscosity)
     # no sphere: ((M⁻¹)_ff)⁻¹ is the Schur complement M_ff − M_fc M_cc⁻¹ M_cf of the
     # constrained components c (O(N²) instead of two dense inverses)
     k = int(np.count_nonzero(~moving_components(anchor, n1)))  # the first k components
@@ -104,6 +177,82 @@ def effective_mobility(x, radius, viscosity, anchor, sphere_radius=0.0) -> np.nd
         return M
     out = np.zeros((3 * n1, 3 * n1))
     out[k:, k:] = M[k:, k:] - M[k:, :k] @ np.linalg.solve(M[:k, :k], M[:k, k:])
+    return out
+
+
+class CellBody(NamedTuple):
+    """A cell body for the coupled mobility: its centre and unit symmetry axis, equatorial
+    semi-axis a, aspect p = c/a, and the local rotational friction ``hook_friction`` across the
+    motor axis that a clamped hook adds to the body (½γ⊥h³, 0 for a free or elastic hook)."""
+
+    centre: np.ndarray
+    axis: np.ndarray
+    radius: float
+    aspect: float
+    hook_friction: float = 0.0
+
+    def motor_axis(self, point) -> np.ndarray:
+        """The inward unit normal m of the body's surface at ``point`` (the motor point)."""
+        d = np.asarray(point, float) - self.centre
+        z = d @ self.axis
+        nrm = (d - z * self.axis) / self.radius ** 2 + z * self.axis / (self.aspect * self.radius) ** 2
+        return -nrm / np.linalg.norm(nrm)
+
+
+def _cell_map(x, cell: CellBody) -> np.ndarray:
+    """P ((3(n+1) + 6) × 3(n+2)): the generalized velocities q = (V, U_1 … U_n, Ω) of a cell
+    to (U_0 … U_n, V, Ω), bead 0 being the motor point, U_0 = V + Ω × d."""
+    n1 = len(x)
+    m = 3 * n1
+    P = np.zeros((m + 6, m + 3))
+    P[:3, :3] = np.eye(3)
+    P[:3, m:] = -_skew((np.asarray(x[0], float) - cell.centre)[None])[0]
+    P[3:m, 3:m] = np.eye(m - 3)
+    P[m:m + 3, :3], P[m + 3:, m:] = np.eye(3), np.eye(3)
+    return P
+
+
+def cell_mobility(x, radius, viscosity, cell: CellBody) -> np.ndarray:
+    """Mobility (3(n+2) square) of a free cell: its generalized velocities q = (V, U_1 … U_n,
+    Ω) (3×3 blocks; the body's velocity V and angular velocity Ω first and last) per
+    generalized force (F_0 + F_B, F_1 … F_n, T_B + d × F_0): the grand mobility
+    (:func:`grand_mobility`) in resistance form, Pᵀ M⁻¹ P (:func:`_cell_map`), plus a clamped
+    hook's local friction across the motor axis, inverted."""
+    big = grand_mobility(x, radius, viscosity, cell.centre, cell.radius, cell.aspect, cell.axis)
+    P = _cell_map(x, cell)
+    R = P.T @ np.linalg.solve(big, P)
+    if cell.hook_friction:
+        m = cell.motor_axis(x[0])
+        R[-3:, -3:] += cell.hook_friction * (np.eye(3) - np.outer(m, m))
+    return np.linalg.inv(R)
+
+
+def cell_local_mobility(x, h, gpar, gperp, viscosity, cell: CellBody) -> np.ndarray:
+    """The local counterpart of :func:`cell_mobility`, block for block the operator of
+    :func:`flagellum.rod.kernels.cell_motion` and :func:`flagellum.hydro.local.bead_friction`:
+    beads 1 … n their local drag, (V, Ω) the inverse of the body's resistance plus bead 0's
+    friction at the motor point (and a clamped hook's friction across m)."""
+    from .body import body_resistance
+
+    n1 = len(x)
+    out = local_mobility(x, h, gpar, gperp, L.CELL, 0.0)
+    out = np.pad(out, ((0, 3), (0, 3)))
+    rb = body_resistance(cell.radius, cell.aspect, viscosity)
+    ee = np.outer(cell.axis, cell.axis)
+    t = (x[1] - x[0]) / np.linalg.norm(x[1] - x[0])
+    z0 = 0.5 * h * (gpar * np.outer(t, t) + gperp * (np.eye(3) - np.outer(t, t)))
+    dx = _skew((np.asarray(x[0], float) - cell.centre)[None])[0]
+    G = np.zeros((6, 6))
+    G[:3, :3] = rb.translation_transverse * np.eye(3) + (rb.translation_axial - rb.translation_transverse) * ee + z0
+    G[:3, 3:] = -z0 @ dx
+    G[3:, :3] = dx @ z0
+    G[3:, 3:] = rb.rotation_transverse * np.eye(3) + (rb.rotation_axial - rb.rotation_transverse) * ee - dx @ z0 @ dx
+    if cell.hook_friction:
+        m = cell.motor_axis(x[0])
+        G[3:, 3:] += cell.hook_friction * (np.eye(3) - np.outer(m, m))
+    Gi = np.linalg.inv(G)
+    s = [0, 1, 2, 3 * n1, 3 * n1 + 1, 3 * n1 + 2]
+    out[np.ix_(s, s)] = Gi
     return out
 
 
@@ -117,14 +266,15 @@ def _attach(R: np.ndarray, n1: int) -> np.ndarray:
     return out
 
 
-def rigid_fit(x_ref, x, anchor):
+def rigid_fit(x_ref, x, anchor, axial=None):
     """(R, residual): the rotation R about bead 0 that best maps the beads x_ref onto x, among
     those under which the anchored problem (and so ΔM) is invariant — about e_z only on a load
-    sphere (``AXIAL``), any for ``FIXED`` and ``FREE`` (Kabsch's least-squares fit) — and the
-    largest bead distance left, |x − x_0 − R(x_ref − x_ref,0)| (``FREE``: relative to bead 0,
-    which carries the body)."""
+    sphere (``AXIAL``) or with ``axial`` (a free swimmer's sphere, which sits at x_0 + a e_z),
+    any for ``FIXED`` and ``FREE`` (Kabsch's least-squares fit; a cell body's points are part
+    of x) — and the largest bead distance left, |x − x_0 − R(x_ref − x_ref,0)| (``FREE``:
+    relative to bead 0, which carries the body)."""
     a, b = x_ref - x_ref[0], x - x[0]
-    if anchor == L.AXIAL:
+    if anchor == L.AXIAL if axial is None else axial:
         s = np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
         c = np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])
         phi = math.atan2(s, c)
@@ -161,6 +311,16 @@ def correction(x, h, gammas, anchor, zeta, radius, viscosity, sphere_radius=0.0,
     return me - local_mobility(x, h, gammas[0], gammas[1], anchor, zeta)
 
 
+def cell_correction(x, h, gammas, radius, viscosity, cell: CellBody, symmetric=False) -> np.ndarray:
+    """ΔM = M_cell − M_cell,loc (3(n+2) square, :func:`cell_mobility`,
+    :func:`cell_local_mobility`) at frozen bead positions x and body ``cell``: what
+    :func:`flagellum.rod.kernels.cell_motion` adds to the body's and the beads' local motion."""
+    me = cell_mobility(x, radius, viscosity, cell)
+    if symmetric:
+        me = 0.5 * (me + me.T)
+    return me - cell_local_mobility(x, h, gammas[0], gammas[1], viscosity, cell)
+
+
 def moving_components(anchor, n1: int) -> np.ndarray:
     """Mask of the 3·n1 bead velocity components the anchor leaves free (bead 0: none when
     ``FIXED``, z only on a load sphere ``AXIAL``, all for ``FREE``); the mobility's rows and
@@ -173,6 +333,7 @@ def moving_components(anchor, n1: int) -> np.ndarray:
     return free
 
 
-__all__ = ["Hydrodynamics", "MODELS", "REFRESH", "correction", "effective_mobility",
-           "local_mobility", "moving_components", "rigid_fit", "rotate_correction",
-           "sphere_coupling"]
+__all__ = ["CellBody", "Hydrodynamics", "MODELS", "REFRESH", "body_flow", "cell_correction",
+           "cell_local_mobility", "cell_mobility", "correction", "effective_mobility",
+           "grand_mobility", "local_mobility", "moving_components", "rigid_fit",
+           "rotate_correction", "sphere_centre", "sphere_coupling"]

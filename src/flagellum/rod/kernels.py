@@ -350,7 +350,26 @@ def _solve2(G, r, size):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el):
+def _cell_bead_correction(DM, DR, V, g, n, width):
+    """V[k] += ΔM g for beads k = 1 … n over the cell's slots (V, beads, Ω; F_j = −DR[j]),
+    blocks at most ``width`` beads apart (the body's slots count as bead 0)."""
+    last = 3 * (n + 1)
+    for k in range(1, n + 1):
+        lo, hi = max(1, k - width), min(n, k + width)
+        for a in range(3):
+            row = 3 * k + a
+            acc = 0.0
+            if k <= width:
+                for q in range(3):
+                    acc += DM[row, q] * g[q] + DM[row, last + q] * g[3 + q]
+            for j in range(lo, hi + 1):
+                c = 3 * j
+                acc -= DM[row, c] * DR[j, 0] + DM[row, c + 1] * DR[j, 1] + DM[row, c + 2] * DR[j, 2]
+            V[k, a] += acc
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width):
     """Motion of a cell body (anchor ``ANCHOR_CELL``) and of the hook frame on it.
 
     The body (centre X, orientation Q = exp([φ]×) from the state's last three values) carries
@@ -365,7 +384,16 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el):
     the motor speed relative to the body is ω = w0 + b M, and a clamp's or a law's torque
     follows from :func:`drive_torque`. Returns (torque, hook frame's ω (3), body's Ω (3),
     body's velocity V (3), bead 0's velocity (3), m (3), rate ω_hook·m, relative motor speed).
-    Adds the hook term with m to GT[0]; out[18] is the change of the hook energy."""
+    Adds the hook term with m to GT[0]; out[18] is the change of the hook energy.
+
+    ``width`` ≥ 0: a nonlocal mobility, the frozen ΔM of
+    :func:`flagellum.hydro.dynamics.cell_correction` in ``DM`` over the slots (V, beads 1 … n,
+    Ω), adds ΔM g to the body's (V, Ω) and to the beads' velocities ``V`` (blocks between
+    slots at most ``width`` beads apart; V and Ω count as bead 0), with g the generalized
+    forces: the bead forces and the body's (f0, d × f0 + …) of the 6×6 problem (a clamped
+    hook's rate about m eliminated: the torque less m times its row). The clamped hook frame
+    follows ΔΩ across m (its rate about m is its own balance), and the motor's load line
+    w0 + b M takes the same correction, so clamp and law stay exact."""
     n = iprm[I_N]
     h, gpar, gperp, grot = prm[P_H], prm[P_GPAR], prm[P_GPERP], prm[P_GROT]
     off = P_LAW + 2 * (iprm[I_NLAW] + iprm[I_NLAW_CW])
@@ -446,6 +474,14 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el):
         for i in range(3):
             r[3 + i, 0] = df[i] + tk[i]
             r[3 + i, 1] = -m[i]
+    gb = np.zeros((6, 2))  # generalized forces on (V, Ω), for the nonlocal correction
+    if width >= 0:
+        for c in range(2):
+            for i in range(6):
+                gb[i, c] = r[i, c]
+            if clamped:
+                for i in range(3):
+                    gb[3 + i, c] -= m[i] * r[6, c]
     _solve2(G, r, size)
     wh0, wh1 = np.empty(3), np.empty(3)
     if clamped:
@@ -458,20 +494,45 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el):
             wh1[i] = tm * t[i] / zt + (m[i] - tm * t[i]) / zp
         w0 = (wh0[0] - r[3, 0]) * m[0] + (wh0[1] - r[4, 0]) * m[1] + (wh0[2] - r[5, 0]) * m[2]
         b = (wh1[0] - r[3, 1]) * m[0] + (wh1[1] - r[4, 1]) * m[1] + (wh1[2] - r[5, 1]) * m[2]
+    dq = np.zeros((6, 2))  # ΔM g on (V, Ω): column 0 without, column 1 per unit motor torque
+    if width >= 0:
+        last = 3 * (n + 1)
+        kmax = min(n, width)
+        for ii in range(6):
+            row = ii if ii < 3 else last + ii - 3
+            for c in range(2):
+                acc = 0.0
+                for q in range(3):
+                    acc += DM[row, q] * gb[q, c] + DM[row, last + q] * gb[3 + q, c]
+                dq[ii, c] = acc
+            for k in range(1, kmax + 1):
+                o = 3 * k
+                dq[ii, 0] -= DM[row, o] * DR[k, 0] + DM[row, o + 1] * DR[k, 1] + DM[row, o + 2] * DR[k, 2]
+        w0 -= dq[3, 0] * m[0] + dq[4, 0] * m[1] + dq[5, 0] * m[2]
+        b -= dq[3, 1] * m[0] + dq[4, 1] * m[1] + dq[5, 1] * m[2]
     if iprm[I_DRIVE] == DRIVE_TORQUE:
         torque = el * prm[P_TORQUE]
     else:
         torque = 0.0 if el == 0.0 else drive_torque(prm, iprm, w0, b)
     out = np.empty(20)
     out[0] = torque
+    dw = np.empty(3)
     for i in range(3):
-        om = r[3 + i, 0] + torque * r[3 + i, 1]
-        vc = r[i, 0] + torque * r[i, 1]
-        if clamped:
-            wh = om + (r[6, 0] + torque * r[6, 1]) * m[i]
+        dw[i] = dq[3 + i, 0] + torque * dq[3 + i, 1]
+    dwm = dw[0] * m[0] + dw[1] * m[1] + dw[2] * m[2]
+    for i in range(3):
+        om = r[3 + i, 0] + torque * r[3 + i, 1] + dw[i]
+        vc = r[i, 0] + torque * r[i, 1] + dq[i, 0] + torque * dq[i, 1]
+        if clamped:  # the hook frame follows the body's correction across m only
+            wh = om - dwm * m[i] + (r[6, 0] + torque * r[6, 1]) * m[i]
         else:
             wh = wh0[i] + torque * wh1[i]
         out[1 + i], out[4 + i], out[7 + i], out[13 + i] = wh, om, vc, m[i]
+    if width >= 0:  # the beads: U_k += ΔM g
+        g = np.empty(6)
+        for i in range(6):
+            g[i] = gb[i, 0] + torque * gb[i, 1]
+        _cell_bead_correction(DM, DR, V, g, n, width)
     ox, oy, oz = _cross(out[4], out[5], out[6], d[0], d[1], d[2])
     out[10], out[11], out[12] = out[7] + ox, out[8] + oy, out[9] + oz  # bead 0 = X + d
     out[16] = out[1] * m[0] + out[2] * m[1] + out[3] * m[2]
@@ -559,14 +620,16 @@ def _rhs_kernel(GENERAL):
             V[i, 0], V[i, 1], V[i, 2] = L.bead_velocity(-DR[i, 0], -DR[i, 1], -DR[i, 2], tx, ty, tz,
                                                         zpar, zperp, mode)
         cell = anchor == ANCHOR_CELL
+        hydro = iprm[I_HYDRO]
+        # nonlocal mobility: U = M_local(y) F + ΔM F, ΔM frozen (the blocks within `width` beads)
+        width = -1 if hydro == HYDRO_LOCAL else (NEAR_BEADS if hydro == HYDRO_BANDED else n)
         cm = V[0]  # (unused placeholder of the same type)
-        if GENERAL and cell:  # bead 0 and the hook frame move with the cell body
-            cm = cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el)
+        if GENERAL and cell:  # bead 0 and the hook frame move with the cell body (and it applies ΔM)
+            cm = cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width)
             energy += cm[18]
             V[0, 0], V[0, 1], V[0, 2] = cm[10], cm[11], cm[12]
-        hydro = iprm[I_HYDRO]
-        if hydro != HYDRO_LOCAL:  # nonlocal mobility: U = M_local(y) F + ΔM F, ΔM frozen
-            _add_correction(DM, DR, V, n, NEAR_BEADS if hydro == HYDRO_BANDED else n)
+        elif width >= 0:
+            _add_correction(DM, DR, V, n, width)
         for i in range(n + 1):  # positions in the rotating frame
             o = 3 + 4 * i
             ydot[o] = V[i, 0] + omega_frame * y[o + 1]

@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import SimulationError
 from ..helix import DiscreteHelix, discrete_helix
 from ..hydro import body as body_model
-from ..hydro.dynamics import correction, rigid_fit, rotate_correction
+from ..hydro.dynamics import CellBody, cell_correction, correction, rigid_fit, rotate_correction
 from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
 from ..params import EndLoad, Params
@@ -31,6 +31,8 @@ NONLOCAL_JACOBIAN_BAND = (23, 19)
 #: beads and the hook, outside any band; the stiff solvers keep this band as the
 #: preconditioner of a Krylov solve (CVODE does so for any band but the rod's)
 CELL_JACOBIAN_BAND = (16, 12)
+#: a cell body with a nonlocal mobility: the cell's band widened by the near field
+NONLOCAL_CELL_JACOBIAN_BAND = (24, 20)
 
 _HOOK = {"free": K.HOOK_FREE, "elastic": K.HOOK_ELASTIC, "clamped": K.HOOK_CLAMPED}
 _ANCHOR = {"fixed": K.ANCHOR_FIXED, "sphere": K.ANCHOR_SPHERE, "free": K.ANCHOR_FREE}
@@ -97,7 +99,8 @@ class RodModel:
         self.ref_m = np.zeros(n1)  #: last known reference twist of each joint (branch of ψ)
         self._nonlocal = not self.hydrodynamics.is_local
         self._solved_drive = self.motor.drive != "torque"  #: the kernel solves for the torque
-        self._ws = K.workspace(self.n, 3 * n1 if self._nonlocal else 0)
+        # ΔM over the beads, or a cell's slots (V, beads 1 … n, Ω) (hydro.dynamics.cell_correction)
+        self._ws = K.workspace(self.n, 3 * (n1 + self.cell) if self._nonlocal else 0)
         self._frozen = None  #: bead positions the nonlocal correction ΔM was built at
         #: build ΔM from the symmetric part of the nonlocal mobility (a thermal stepper sets it)
         self.symmetric_mobility = False
@@ -273,7 +276,7 @@ class RodModel:
     def jacobian_band(self) -> tuple[int, int]:
         """(lower, upper) bandwidth of the Jacobian the stiff solvers use for this model."""
         if self.cell:
-            return CELL_JACOBIAN_BAND
+            return NONLOCAL_CELL_JACOBIAN_BAND if self._nonlocal else CELL_JACOBIAN_BAND
         return NONLOCAL_JACOBIAN_BAND if self._nonlocal else JACOBIAN_BAND
 
     def jacobian_colors(self, kl: int, ku: int):
@@ -324,19 +327,49 @@ class RodModel:
         whether it did. A no-op for the local model."""
         if not self._nonlocal:
             return False
-        x = positions(y)
+        x = self._mobility_points(y)
         if not force and self._frozen is not None:
             if np.max(np.abs(x - self._frozen)) <= self.hydrodynamics.refresh:
                 return False
             # a rigid rotation of the frozen beads (about bead 0): turn ΔM instead of rebuilding
-            rot, resid = rigid_fit(self._frozen, x, _ANCHOR[self.boundary.anchor])
+            # (a free swimmer's sphere sits at x_0 + a e_z: about e_z only)
+            b = self.boundary
+            rot, resid = rigid_fit(self._frozen, x, _ANCHOR[b.anchor],
+                                   axial=(b.anchor != "fixed" and bool(b.sphere_radius)) or None)
             if resid <= self.hydrodynamics.refresh:
                 self._ws[-1][:] = rotate_correction(self._ws[-1], rot)
                 self._frozen = x[0] + (self._frozen - self._frozen[0]) @ rot.T
                 return True
-        self._ws[-1][:] = correction(x, *self.mobility_arguments(), symmetric=self.symmetric_mobility)
+        if self.cell:
+            n1 = self.n + 1
+            fluid = self.params.fluid
+            self._ws[-1][:] = cell_correction(x[:n1], self.h, self.gammas, fluid.filament_radius,
+                                              fluid.viscosity, self._cell_body(x),
+                                              symmetric=self.symmetric_mobility)
+        else:
+            self._ws[-1][:] = correction(x, *self.mobility_arguments(), symmetric=self.symmetric_mobility)
         self._frozen = x.copy()
         return True
+
+    def _mobility_points(self, y: np.ndarray) -> np.ndarray:
+        """The points the nonlocal mobility depends on: the beads, and for a cell body its
+        centre and its front pole (which fix its position and orientation)."""
+        x = positions(y)
+        if not self.cell:
+            return x
+        b = self.boundary
+        g = body_model.body_geometry(b.body_radius, b.body_aspect, b.motor_offset)
+        q = body_model.rotvec_matrix(y[-3:])
+        centre = x[0] - q @ g.offset
+        return np.vstack([x, centre, centre + b.body_aspect * b.body_radius * (q @ g.axis)])
+
+    def _cell_body(self, points: np.ndarray) -> CellBody:
+        """The cell body of :meth:`_mobility_points` for :mod:`flagellum.hydro.dynamics`."""
+        b = self.boundary
+        centre, front = points[-2], points[-1]
+        clamped = b.hook == "clamped"
+        return CellBody(centre, (front - centre) / np.linalg.norm(front - centre), b.body_radius,
+                        b.body_aspect, 0.5 * self.gammas[1] * self.h ** 3 if clamped else 0.0)
 
     def mobility_arguments(self) -> tuple:
         """The arguments of :func:`flagellum.hydro.dynamics.correction` after the positions:

@@ -29,6 +29,7 @@ _EXPORTS = {
     "Helix": "helix", "discrete_helix": "helix",
     "critical_torque": "analysis.stability", "linear_stability": "analysis.stability",
     "relative_equilibrium": "analysis.stability", "critical_speed": "analysis.stability",
+    "tumble": "analysis.tumble", "TumbleSummary": "analysis.tumble",
     "Sweep": "sweep", "run_sweep": "sweep", "read_sweep": "sweep",
     "FlagellumError": "errors", "ParameterError": "errors", "SimulationError": "errors",
 }

@@ -17,12 +17,15 @@ from pathlib import Path
 from .common import FIGURES, QUALITIES, Timer, check_quality
 from .shared import Cache
 
-TARGETS = FIGURES + ("all",)
+#: targets beyond the paper's figures (not part of ``all``): name → module
+EXTRAS = {"tumble": "tumble"}
+TARGETS = FIGURES + tuple(EXTRAS) + ("all",)
 
 
 def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality: str = "quick",
               cache: Cache | None = None, echo=None, hydrodynamics=None) -> dict:
-    """Run one figure (``"fig3"`` … ``"fig8"``) or ``"all"``; returns the headline numbers.
+    """Run one figure (``"fig3"`` … ``"fig8"``), ``"all"`` of them, or an extra target
+    (:data:`EXTRAS`: ``"tumble"``, :mod:`.tumble`); returns the headline numbers.
 
     ``cache`` (:class:`.shared.Cache`) holds work shared between figures (the simulation
     sweep of Fig. 3/4, the critical points of Fig. 5/7) when several run in one process.
@@ -51,7 +54,7 @@ def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality:
     for fig in targets:
         if echo:
             echo(f"reproducing {fig} ({quality}) …")
-        mod = importlib.import_module(f".{fig}", __name__)
+        mod = importlib.import_module(f".{EXTRAS.get(fig, fig)}", __name__)
         t = Timer()
         result[fig] = mod.run(out / fig, quality, cache)
         if cache.hydrodynamics is not None and not cache.hydrodynamics.is_local:
@@ -90,4 +93,4 @@ def _write_index(out: Path, result: dict, quality: str, seconds: float) -> None:
     atomic_write_text(out / "comparison.md", "\n".join(parts))
 
 
-__all__ = ["reproduce", "Cache", "TARGETS", "FIGURES", "QUALITIES"]
+__all__ = ["reproduce", "Cache", "EXTRAS", "TARGETS", "FIGURES", "QUALITIES"]

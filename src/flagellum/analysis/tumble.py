@@ -91,8 +91,8 @@ def tumble(t, position, axis, reversal: tuple[float, float], window: float = WIN
     after = (max(t_off, t[-1] - window), t[-1])
     v0, v1 = mean_velocity(t, position, *before), mean_velocity(t, position, *after)
     ax = np.asarray(axis, float)
-    a0 = ax[(t >= before[0]) & (t <= before[1])].mean(axis=0)
-    a1 = ax[(t >= after[0]) & (t <= after[1])].mean(axis=0)
+    a0, a1 = (ax[s].mean(axis=0) if s.any() else np.full(3, math.nan)
+              for s in ((t >= before[0]) & (t <= before[1]), (t >= after[0]) & (t <= after[1])))
     extra = dict(transform_time=math.nan, recovery_time=math.nan,
                  transformed_fraction_max=math.nan, normal_fraction_final=math.nan)
     peaks, sequence = None, ()

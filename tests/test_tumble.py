@@ -325,3 +325,49 @@ def test_cli_cell_with_reversals_reports_the_tumble_and_renders_by_form(cli, tmp
 
     frames = _decoded(mp4)
     assert len(frames) == 2 and _count(frames[-1], FORM_COLORS[0]) > 200
+
+
+def test_reproduce_tumble_writes_its_files_and_table(tmp_path, monkeypatch):
+    """The target's analyse → plot → write → compare steps on stand-in runs (synthetic
+    swimmers turned by known angles, a domain growing and shrinking; the simulations
+    themselves are the slow tests above): the mean of the angles, the CSV and HDF5, a
+    figure that is not blank, and the table with Berg & Brown's 68°."""
+    import flagellum.reproduce.tumble as T
+    from flagellum.reproduce import reproduce
+    from flagellum.reproduce.common import pixel_variance
+    from flagellum.rod.polymorph import fractions
+
+    def fake(job):
+        d = job["duration"]
+        theta = 40.0 * d / 0.35 if d > 0 else 0.0
+        t, pos, axis = _swimmer(math.radians(theta), t_on=T.RUN_BEFORE, t_off=T.RUN_BEFORE + d + 1e-9,
+                                t_end=T.RUN_BEFORE + d + T.RUN_AFTER, rate=T.RATE)
+        k = np.clip(np.floor((t - T.RUN_BEFORE) * 40), 0, 20) * (t < T.RUN_BEFORE + d + 0.1)
+        phi = (np.arange(20)[None, :] < k[:, None]).astype(float)
+        s = tumble(t, pos, axis, (T.RUN_BEFORE, T.RUN_BEFORE + d + 1e-9), 0.1, phi, T.LANDSCAPE["forms"])
+        out = {"duration": d, "phase": job["phase"], **s.to_dict(), "wall_seconds": 0.0}
+        out.pop("peak_fractions")
+        out.update({f"peak_{f}": v for f, v in s.peak_fractions.items()})
+        out["series"] = {"t": t, "torque": np.ones_like(t), "fractions": fractions(phi, 3),
+                         "body_position": pos, "body_axis": axis}
+        return out
+
+    monkeypatch.setattr(T, "pmap", lambda fun, jobs: [fake(j) for j in jobs])
+    res = reproduce("tumble", tmp_path, "quick")
+    angles = [40.0 * d / 0.35 for d in T.DURATIONS["quick"]]
+    assert res["runs"] == len(angles) and res["failed"] == 0
+    assert res["tumble_angle_mean_deg"] == pytest.approx(np.mean(angles), abs=1e-6)
+    assert res["control_angle_deg"] == pytest.approx(0.0, abs=1e-6)
+    out = tmp_path / "tumble"
+    for name in ("tumble.png", "tumble.pdf", "tumbles.csv", "tumble.h5", "comparison.md"):
+        assert (out / name).exists(), name
+    assert pixel_variance(out / "tumble.png") > 1e-3
+    csv = (out / "tumbles.csv").read_text().splitlines()
+    assert csv[0].startswith("duration [s],phase [s],tumble_angle_deg [deg]") and len(csv) == len(angles) + 2
+    table = (out / "comparison.md").read_text()
+    assert "Berg & Brown" in table and "| 68 |" in table and "normal → semicoiled" in table
+    with pytest.raises(ParameterError, match="hydrodynamics"):
+        from flagellum.hydro.options import Hydrodynamics
+        from flagellum.reproduce.shared import Cache
+
+        T.compute("quick", Cache(hydrodynamics=Hydrodynamics(model="sbt")))

@@ -30,6 +30,7 @@ _EXPORTS = {
     "critical_torque": "analysis.stability", "linear_stability": "analysis.stability",
     "relative_equilibrium": "analysis.stability", "critical_speed": "analysis.stability",
     "torque_thresholds": "analysis.polymorph",
+    "tumble": "analysis.tumble", "TumbleSummary": "analysis.tumble",
     "Sweep": "sweep", "run_sweep": "sweep", "read_sweep": "sweep",
     "FlagellumError": "errors", "ParameterError": "errors", "SimulationError": "errors",
 }

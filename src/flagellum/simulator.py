@@ -446,6 +446,9 @@ class Simulator:
         rate = max(abs(self.model.omega_frame), 100.0)
         if self._last_motor is not None:  # measured motor speed, capped: transients spike it
             rate = max(rate, min(abs(self._last_motor[3]), 3.0 * self._omega_scale))
+            # …relative to the frame: a reversal leaves the frame turning the other way
+            rate = max(rate, min(abs(self._last_motor[3] - self.model.omega_frame),
+                                 3.0 * self._omega_scale))
         chunk = 0.5 / rate
         if self.polymorphism is not None:  # φ follows the rod between chunks: shorter than ζ/k
             chunk = min(chunk, 0.5 * self.phi_relaxation_time)
@@ -453,23 +456,45 @@ class Simulator:
         if step:  # whole fixed steps: a shortened step would restart BDF2 with an Euler step
             chunk = step * max(1, math.floor(chunk / step))
         y = stepper.y
+        # the drive jumps at a reversal: an adaptive stepper stops there and restarts (CVODE
+        # stepping across the jump can stall in the hook's fast spin-up after it)
+        switches = () if step else self.motor.switching_times(t_target)
         while stepper.t < t_target:
             t_next = min(t_target, stepper.t + chunk)
             if t_target - t_next < 0.25 * chunk:
                 t_next = t_target
+            # (a switch within 1 ns of a chunk's end, e.g. a record time, counts as that end)
+            switch = next((s for s in switches if stepper.t + 1e-9 < s <= t_next + 1e-9), None)
+            if switch is not None and switch < t_next - 1e-9:
+                t_next = switch
             self.model.refresh_mobility(y)  # a nonlocal mobility: frozen over the chunk
             if self.end_load is not None:  # integrators that call the kernels themselves
                 self.model.prm[self.model.iprm[K.I_EXTRA] + K.X_TRAP_Z] = \
                     self.model.trap_centre(0.5 * (stepper.t + t_next))
             t_prev = stepper.t
-            y = stepper.advance(t_next)
+            y = self._advance_chunk(stepper, t_next)
             reset = self.polymorphism is not None and self._transform(y, t_next - t_prev)
             if t_next < t_target and self.model.rechart(y, threshold=CHART_LIMIT):
                 self.model.refresh_mobility(y, force=True)
                 reset = True
-            if reset:
+            if reset or switch is not None:
                 stepper.reset(t_next, y)
         return y
+
+    def _advance_chunk(self, stepper, t_next: float) -> np.ndarray:
+        """One chunk; if the stepper fails, once more from the chunk's start after re-centring
+        every chart a tangent has turned more than 90° from (a fast turn, e.g. the free end
+        whipping round while its form changes, can carry a tangent within one chunk from
+        near CHART_LIMIT to its chart's singular point)."""
+        t0, y0 = stepper.t, stepper.y.copy()
+        try:
+            return stepper.advance(t_next)
+        except SimulationError:
+            if not self.model.rechart(y0, threshold=0.0):
+                raise
+            self.model.refresh_mobility(y0, force=True)
+            stepper.reset(t0, y0)
+            return stepper.advance(t_next)
 
     def _motor_angle(self) -> float:
         """Accumulated rotation of the hook frame about e_z (lab), continuous in time.

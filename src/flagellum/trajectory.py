@@ -208,6 +208,31 @@ class Trajectory:
         """h [µm]: the mean bead spacing of the first record."""
         return float(np.mean(np.linalg.norm(np.diff(self.positions[0], axis=0), axis=1)))
 
+    def tumble_summary(self, reversal: tuple[float, float] | None = None,
+                       window: float | None = None):
+        """The tumble of a free-swimming cell (:func:`flagellum.analysis.tumble.tumble`):
+        the angle between its mean swimming directions before the reversal ``(t_on, t_off)``
+        and over the last ``window`` [s] of the run, the speeds, and for a polymorphic run the
+        time course of the transformation. Default ``reversal``: the motor's first two
+        switching times; default ``window``: 0.1 s, shortened to the time available."""
+        from .analysis.tumble import WINDOW, tumble
+
+        if reversal is None:
+            motor = json.loads(str(self.meta.get("motor", "{}")))
+            times = [s for s in (motor.get("reversals") or ()) if s <= self.t[-1]]
+            if len(times) < 2:
+                from .errors import ParameterError
+
+                raise ParameterError("reversal", motor.get("reversals"), "two switching times "
+                                     "(t_on, t_off) within the run")
+            reversal = (times[0], times[1])
+        if window is None:
+            window = min(WINDOW, reversal[0] - self.t[0], self.t[-1] - reversal[1])
+        forms = (str(self.meta[io.POLYMORPH_ATTR]).split(",") if self.polymorph is not None
+                 else None)
+        return tumble(self.t, self.body_position, self.body_axis, reversal, window,
+                      self.polymorph, forms)
+
     def _window(self, t_from):
         t0 = self.t[0] + 0.5 * (self.t[-1] - self.t[0]) if t_from is None else t_from
         sel = self.t >= t0

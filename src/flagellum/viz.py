@@ -5,6 +5,11 @@ A movie frame shows the filament in 3D as a thick polyline coloured by local cur
 the thrust is given, the thrust F(t) of Sec. 3.1 with a cursor at the frame's time. The
 motor axis runs horizontally, so the long filament fills a 16:9 frame.
 
+A polymorphic run (``polymorph``, :mod:`flagellum.rod.polymorph`) colours each segment by
+its form instead (:data:`FORM_COLORS`, with a legend of the form names); a cell body
+(``body``: the record's ``body_position``, ``body_axis`` and the body's semi-axes) is drawn
+as the outline of its spheroid (lab view).
+
 Two views (``view``):
 
 - ``"lab"``: the lab frame. The motor turns the filament at ω ≈ 660–1000 rad/s (a
@@ -34,6 +39,8 @@ SIZES = {"720p": (1280, 720), "1080p": (1920, 1080)}
 VIEWS = ("lab", "corotating")
 #: top of the curvature colour scale [1/µm] (the paper's helix has κ0 = 1.3/µm)
 CURVATURE_MAX = 3.0
+#: colour of each polymorphic form, in the order of the run's forms (normal first)
+FORM_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728")
 _DPI = 100  # 720p; 1080p scales the dpi, so the layout and the font sizes stay the same
 
 
@@ -108,7 +115,7 @@ class _Frame:
     """One figure (3D filament, colour bar, thrust trace) whose artists are updated per frame."""
 
     def __init__(self, lim, size="720p", t=None, thrust=None, axis_label="motor axis",
-                 turn=None):
+                 turn=None, forms=None, body_shape=None):
         from matplotlib import cm, colors
         from matplotlib.ticker import MaxNLocator
         from mpl_toolkits.mplot3d.art3d import Line3DCollection
@@ -131,6 +138,16 @@ class _Frame:
             (self.helix_axis,) = ax.plot([], [], [], "-", color="darkorange", lw=2.5,
                                          label="helix axis (beads averaged over one turn)")
         ax.scatter([0], [0], [0], color="red", s=40, depthshade=False, label="anchor (motor)")
+        self.forms, self.body_shape, self.body_lines = forms, body_shape, None
+        if body_shape is not None:
+            self.body_lines = Line3DCollection([np.zeros((2, 3))], linewidths=1.2, colors="0.35")
+            ax.add_collection3d(self.body_lines, autolim=False)
+            ax.plot([], [], [], "-", color="0.35", lw=1.2, label="cell body")
+        if forms:
+            from matplotlib.patches import Patch
+
+            self.form_handles = [Patch(color=FORM_COLORS[i % len(FORM_COLORS)], label=f)
+                                 for i, f in enumerate(forms)]
         ax.set_xlim(*lim[2])
         ax.set_ylim(*lim[0])
         ax.set_zlim(*lim[1])
@@ -145,14 +162,20 @@ class _Frame:
             a.set_major_locator(MaxNLocator(3))
         ax.tick_params(labelsize=10, pad=2)
         ax.legend(loc="upper left", bbox_to_anchor=(0.06, 0.86), fontsize=11, frameon=False)
-        if with_trace:
-            cax = fig.add_axes([0.77, 0.26, 0.21, 0.025])
+        if forms:  # the forms' legend where the curvature colour bar would be
+            fig.legend(handles=self.form_handles, title="polymorphic form", fontsize=11,
+                       title_fontsize=12, frameon=False,
+                       loc="lower right" if with_trace else "center right",
+                       bbox_to_anchor=(0.98, 0.08) if with_trace else (0.98, 0.5))
         else:
-            cax = fig.add_axes([0.9, 0.2, 0.015, 0.55])
-        cb = fig.colorbar(cm.ScalarMappable(self.norm, self.cmap), cax=cax, extend="max",
-                          orientation="horizontal" if with_trace else "vertical")
-        cb.set_label("curvature κ [1/µm]", fontsize=12)
-        cb.ax.tick_params(labelsize=10)
+            if with_trace:
+                cax = fig.add_axes([0.77, 0.26, 0.21, 0.025])
+            else:
+                cax = fig.add_axes([0.9, 0.2, 0.015, 0.55])
+            cb = fig.colorbar(cm.ScalarMappable(self.norm, self.cmap), cax=cax, extend="max",
+                              orientation="horizontal" if with_trace else "vertical")
+            cb.set_label("curvature κ [1/µm]", fontsize=12)
+            cb.ax.tick_params(labelsize=10)
         self.cursor = None
         if with_trace:
             tax = fig.add_axes([0.8, 0.45, 0.18, 0.38])
@@ -167,12 +190,21 @@ class _Frame:
         self.title = fig.text(0.02, 0.965, "", fontsize=15, va="top", weight="bold")
         self.subtitle = fig.text(0.02, 0.915, "", fontsize=12, va="top")
 
-    def draw(self, pos, axis_dir, title, subtitle, t=None, thrust=None):
-        """Show one configuration (N+1, 3) [µm, relative to the anchor] and its texts."""
+    def draw(self, pos, axis_dir, title, subtitle, t=None, thrust=None, form=None, body=None):
+        """Show one configuration (N+1, 3) [µm, relative to the anchor] and its texts;
+        ``form`` (N,) the form index of each segment, ``body`` (centre relative to the
+        anchor, axis) of the cell body."""
         p = pos[:, [2, 0, 1]]
         self.lines.set_segments(np.stack([p[:-1], p[1:]], axis=1))
-        k = curvature(pos)
-        self.lines.set_color(self.cmap(self.norm(0.5 * (k[:-1] + k[1:]))))
+        if form is not None:
+            self.lines.set_color([FORM_COLORS[int(f) % len(FORM_COLORS)] for f in form])
+        else:
+            k = curvature(pos)
+            self.lines.set_color(self.cmap(self.norm(0.5 * (k[:-1] + k[1:]))))
+        if self.body_lines is not None and body is not None:
+            curves = body_outline(body[0], body[1], *self.body_shape)[:, :, [2, 0, 1]]
+            self.body_lines.set_segments(np.concatenate([np.stack([c[:-1], c[1:]], axis=1)
+                                                         for c in curves]))
         a = np.asarray(axis_dir)[[2, 0, 1]]
         ends = np.array(self.ax.get_xlim()) / max(a[0], 0.2)  # across the box, through the anchor
         self.axis_line.set_data_3d(*(np.outer(ends, a).T))
@@ -191,9 +223,28 @@ class _Frame:
         pyplot().close(self.fig)
 
 
-def _limits(positions: np.ndarray):
-    """Axis ranges (x, y, z) [µm] holding every configuration, the anchor and the motor axis."""
-    flat = np.concatenate([positions.reshape(-1, 3), np.zeros((1, 3))])
+def body_outline(centre, axis, radius: float, aspect: float, points: int = 48) -> np.ndarray:
+    """(4, points, 3) curves on a prolate spheroid of equatorial semi-axis ``radius`` and polar
+    semi-axis ``aspect``·``radius`` about the unit ``axis``: two meridians, the equator and a
+    circle of latitude near the rear pole (where the motor sits)."""
+    e = np.asarray(axis, float) / np.linalg.norm(axis)
+    e1 = np.cross(e, [1.0, 0.0, 0.0] if abs(e[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(e, e1)
+    u = np.linspace(0.0, 2 * np.pi, points)[:, None]
+    a, c = radius, aspect * radius
+    lat = -0.8  # cos of the rear circle's polar angle
+    curves = [c * np.cos(u) * e + a * np.sin(u) * e1, c * np.cos(u) * e + a * np.sin(u) * e2,
+              a * (np.cos(u) * e1 + np.sin(u) * e2),
+              c * lat * e + a * np.sqrt(1 - lat * lat) * (np.cos(u) * e1 + np.sin(u) * e2)]
+    return np.asarray(centre, float) + np.stack(curves)
+
+
+def _limits(positions: np.ndarray, extra: np.ndarray | None = None):
+    """Axis ranges (x, y, z) [µm] holding every configuration, the anchor and the motor axis
+    (and the points ``extra`` (…, 3), e.g. a body's outline)."""
+    flat = np.concatenate([positions.reshape(-1, 3), np.zeros((1, 3))]
+                          + ([np.asarray(extra).reshape(-1, 3)] if extra is not None else []))
     lo, hi = flat.min(0), flat.max(0)
     half = max(0.55 * (hi[:2] - lo[:2]).max(), 1.0)
     cx, cy = 0.5 * (lo[:2] + hi[:2])
@@ -207,14 +258,26 @@ def _check(view, size):
         raise ParameterError("size", size, "one of " + ", ".join(SIZES))
 
 
-def _frames(t, positions, idx, title, view, size, thrust, motor_speed, trace, spacing=True):
+def _frames(t, positions, idx, title, view, size, thrust, motor_speed, trace, spacing=True,
+            polymorph=None, forms=None, body=None):
     """Yield the RGB image (height, width, 3) of each record in ``idx``.
 
     ``trace`` is the slice of records the thrust trace shows; ``spacing``: the lab view's
-    title states the frame spacing (for a movie, not for snapshots).
+    title states the frame spacing (for a movie, not for snapshots). ``polymorph`` (n_t, N)
+    and ``forms``: colour the segments by form; ``body``: draw the cell body (lab view).
     """
     _check(view, size)
+    from .rod.polymorph import forms_of
+
+    form = None
+    if polymorph is not None:
+        form = forms_of(np.asarray(polymorph, float)[idx])
+        if forms is None:
+            forms = tuple(str(i) for i in range(int(form.max()) + 1))
     pos = np.asarray(positions, float)[idx]
+    cell = None
+    if body is not None and view == "lab":  # the centre relative to the anchor (bead 0)
+        cell = (np.asarray(body["position"], float)[idx] - pos[:, 0], np.asarray(body["axis"], float)[idx])
     if view == "corotating":
         pos, axes = corotate(pos)
         how, axis_label = "co-rotating view (rigid rotation about the anchor removed)", \
@@ -224,13 +287,20 @@ def _frames(t, positions, idx, title, view, size, thrust, motor_speed, trace, sp
         how = frame_spacing(t, idx, motor_speed) if spacing else "lab frame"
         axis_label = "motor axis"
     turn = beads_per_turn(pos[0]) if view == "corotating" else None
-    frame = _Frame(_limits(pos), size, t[trace], None if thrust is None else thrust[trace],
-                   axis_label, turn)
+    shape = (float(body["radius"]), float(body["aspect"])) if cell is not None else None
+    extra = None
+    if cell is not None:  # the body's outline in every frame bounds the box
+        extra = np.concatenate([body_outline(cell[0][j], cell[1][j], *shape).reshape(-1, 3)
+                                for j in range(len(idx))])
+    frame = _Frame(_limits(pos, extra), size, t[trace], None if thrust is None else thrust[trace],
+                   axis_label, turn, forms if form is not None else None, shape)
     head = f"{title} · {how}" if title else how
     try:
         for j, i in enumerate(idx):
             yield frame.draw(pos[j], axes[j], head, f"t = {t[i] * 1e3:.1f} ms", t[i],
-                             None if thrust is None else float(thrust[i]))
+                             None if thrust is None else float(thrust[i]),
+                             None if form is None else form[j],
+                             None if cell is None else (cell[0][j], cell[1][j]))
     finally:
         frame.close()
 
@@ -238,7 +308,8 @@ def _frames(t, positions, idx, title, view, size, thrust, motor_speed, trace, sp
 def movie(t: np.ndarray, positions: np.ndarray, path: str | Path, fps: int = 20,
           max_frames: int = 200, title: str = "", *, view: str = "lab", size: str = "720p",
           thrust: np.ndarray | None = None, motor_speed: np.ndarray | None = None,
-          poster: bool = True) -> int:
+          poster: bool = True, polymorph: np.ndarray | None = None, forms=None,
+          body: dict | None = None) -> int:
     """Write an MP4 (H.264) of the trajectory; returns the number of frames written.
 
     ``max_frames`` frames are taken evenly over the records (all of them when there are
@@ -247,6 +318,9 @@ def movie(t: np.ndarray, positions: np.ndarray, path: str | Path, fps: int = 20,
     With ``thrust`` (per record) a thrust trace with a cursor is drawn; ``motor_speed``
     (per record) lets the lab view state the frames per revolution. With ``poster`` the
     last frame is also written as a PNG next to the movie (same name, ``.png``).
+    ``polymorph`` (per record, (n_t, N) order parameters) with the names of its ``forms``
+    colours the segments by form; ``body`` (``position`` and ``axis`` per record, the
+    semi-axis ``radius`` and ``aspect``) draws the cell body in the lab view.
     """
     import imageio.v2 as imageio
 
@@ -262,7 +336,8 @@ def movie(t: np.ndarray, positions: np.ndarray, path: str | Path, fps: int = 20,
         with imageio.get_writer(str(tmp), format="FFMPEG", fps=fps, codec="libx264",
                                 macro_block_size=8, pixelformat="yuv420p", quality=8) as w:
             for last in _frames(t, positions, idx, title, view, size, thrust, motor_speed,
-                                slice(idx[0], idx[-1] + 1)):
+                                slice(idx[0], idx[-1] + 1), polymorph=polymorph, forms=forms,
+                                body=body):
                 w.append_data(last)
     if poster and last is not None:
         with atomic_path(path.with_suffix(".png")) as tmp:
@@ -273,8 +348,10 @@ def movie(t: np.ndarray, positions: np.ndarray, path: str | Path, fps: int = 20,
 def snapshots(t: np.ndarray, positions: np.ndarray, out_dir: str | Path, count: int = 4,
               title: str = "", *, view: str = "lab", size: str = "720p",
               thrust: np.ndarray | None = None, motor_speed: np.ndarray | None = None,
-              first_record: int = 0) -> list[Path]:
-    """PNG snapshots at ``count`` evenly spaced times, laid out as the movie frames.
+              first_record: int = 0, polymorph: np.ndarray | None = None, forms=None,
+              body: dict | None = None) -> list[Path]:
+    """PNG snapshots at ``count`` evenly spaced times, laid out as the movie frames
+    (``polymorph``, ``forms``, ``body``: as for :func:`movie`).
 
     The files are named ``snapshot_KKKKK.png`` by record number, ``first_record`` being the
     number of the first record passed.
@@ -291,7 +368,8 @@ def snapshots(t: np.ndarray, positions: np.ndarray, out_dir: str | Path, count: 
     idx = np.unique(np.linspace(0, len(t) - 1, count).round().astype(int))
     files = []
     for i, img in zip(idx, _frames(t, positions, idx, title, view, size, thrust, motor_speed,
-                                   slice(None), spacing=False)):
+                                   slice(None), spacing=False, polymorph=polymorph, forms=forms,
+                                   body=body)):
         p = out_dir / f"snapshot_{first_record + i:05d}.png"
         with atomic_path(p) as tmp:
             imageio.imwrite(str(tmp), img, format="PNG")

@@ -24,6 +24,24 @@ def _title(data) -> str:
     return " · ".join(parts)
 
 
+def _extras(data, keep) -> dict:
+    """The segments' forms of a polymorphic run and the cell body of a whole-cell run."""
+    import json
+
+    from ..io import POLYMORPH_ATTR
+
+    out = {}
+    attrs = data["attrs"]
+    if data.get("polymorph") is not None and attrs.get(POLYMORPH_ATTR):
+        out.update(polymorph=data["polymorph"][keep], forms=str(attrs[POLYMORPH_ATTR]).split(","))
+    boundary = json.loads(str(attrs.get("boundary", "{}")) or "{}")
+    if boundary.get("body_radius") and data.get("body_position") is not None:
+        out["body"] = {"position": data["body_position"][keep], "axis": data["body_axis"][keep],
+                       "radius": float(boundary["body_radius"]),
+                       "aspect": float(boundary.get("body_aspect") or 1.0)}
+    return out
+
+
 @click.command("render", short_help="Movie and snapshots of a trajectory file")
 @click.argument("file")
 @click.option("--movie", type=click.Path(dir_okay=False), default=None,
@@ -47,6 +65,7 @@ def render(file, movie, snapshots, frames, fps, count, view, size, start, end, a
     frames are a fraction of a revolution apart: the title says how many frames fall on one
     revolution; a short --save-every in simulate and a short --start/--end window give
     more. The co-rotating view removes the rotation and shows the change of shape.
+    A polymorphic run's segments are coloured by form; a cell body is drawn (lab view).
     """
     import numpy as np
 
@@ -78,7 +97,8 @@ def render(file, movie, snapshots, frames, fps, count, view, size, start, end, a
                                              f"t in [{t[0]:g}, {t[-1]:g}] s")
     title = _title(data)
     rec = {k: data[k][keep] for k in ("t", "positions", "thrust", "motor_speed")}
-    args = dict(title=title, view=view, size=size, thrust=rec["thrust"], motor_speed=rec["motor_speed"])
+    args = dict(title=title, view=view, size=size, thrust=rec["thrust"], motor_speed=rec["motor_speed"],
+                **_extras(data, keep))
     out = {"file": str(path), "records": int(len(t)), "view": view, "size": size}
     if movie is not None:
         out["movie"] = str(movie)

@@ -10,7 +10,7 @@ from ._options import hydro_from_cli, hydro_options, output_option
 from ._output import emit_json, emit_table
 
 
-@click.command("reproduce", short_help="Reproduce the paper's figures (fig3 … fig8)")
+@click.command("reproduce", short_help="Reproduce the paper's figures (fig3 … fig8) and the tumble")
 @click.argument("figure")
 @output_option("out_dir", "output directory (one subdirectory per figure)", directory=True,
                default="flagellum-reproduce", show_default=True)
@@ -20,10 +20,11 @@ from ._output import emit_json, emit_table
 @click.option("--json", "as_json", is_flag=True, help="print the headline numbers as JSON")
 def reproduce(figure, out_dir, quality, as_json, **kwargs):
     """Reproduce a figure of the paper: fig3, fig4, fig5, fig6, fig7, fig8 or all; or
-    force-extension (a coiled filament pulled by a trap, against Darnton & Berg 2007).
+    force-extension (a coiled filament pulled by a trap, against Darnton & Berg 2007) or
+    tumble (run and tumble of a cell with a polymorphic flagellum); these two are not part of all.
 
     Writes DIR/FIG/FIG.png and .pdf, the data (CSV, HDF5) and comparison.md (the paper's
-    numbers next to ours).
+    numbers, or the literature's, next to ours).
     """
     from ..reproduce import reproduce as run_target
 

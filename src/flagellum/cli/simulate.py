@@ -93,6 +93,8 @@ def _report_run(sim, traj, average_from, output, as_json):
         out.update(traj.load_summary(average_from))
     if sim.polymorphism is not None:
         out.update(traj.polymorph_summary(average_from))
+    if sim.boundary.is_cell and len(sim.motor.reversals or ()) >= 2 and sim.motor.reversals[1] < sim.t:
+        out.update(traj.tumble_summary().to_dict())
     if output:
         out["output"] = str(output)
     if as_json:

@@ -18,14 +18,14 @@ from .common import FIGURES, QUALITIES, Timer, check_quality
 from .shared import Cache
 
 #: targets beyond the paper's figures (not part of ``all``): target name → module
-EXTRA_TARGETS = {"force-extension": "force_extension"}
-TARGETS = FIGURES + tuple(EXTRA_TARGETS) + ("all",)
+EXTRAS = {"force-extension": "force_extension", "tumble": "tumble"}
+TARGETS = FIGURES + tuple(EXTRAS) + ("all",)
 
 
 def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality: str = "quick",
               cache: Cache | None = None, echo=None, hydrodynamics=None) -> dict:
     """Run one figure (``"fig3"`` … ``"fig8"``), ``"all"`` of them, or a target of
-    :data:`EXTRA_TARGETS` (``"force-extension"``); returns the headline numbers.
+    :data:`EXTRAS` (``"force-extension"``, ``"tumble"``); returns the headline numbers.
 
     ``cache`` (:class:`.shared.Cache`) holds work shared between figures (the simulation
     sweep of Fig. 3/4, the critical points of Fig. 5/7) when several run in one process.
@@ -54,7 +54,7 @@ def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality:
     for fig in targets:
         if echo:
             echo(f"reproducing {fig} ({quality}) …")
-        mod = importlib.import_module(f".{EXTRA_TARGETS.get(fig, fig)}", __name__)
+        mod = importlib.import_module(f".{EXTRAS.get(fig, fig)}", __name__)
         t = Timer()
         result[fig] = mod.run(out / fig, quality, cache)
         if cache.hydrodynamics is not None and not cache.hydrodynamics.is_local:
@@ -93,4 +93,4 @@ def _write_index(out: Path, result: dict, quality: str, seconds: float) -> None:
     atomic_write_text(out / "comparison.md", "\n".join(parts))
 
 
-__all__ = ["reproduce", "Cache", "TARGETS", "FIGURES", "QUALITIES"]
+__all__ = ["reproduce", "Cache", "EXTRAS", "TARGETS", "FIGURES", "QUALITIES"]

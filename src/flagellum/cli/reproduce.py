@@ -10,7 +10,7 @@ from ._options import hydro_from_cli, hydro_options, output_option
 from ._output import emit_json, emit_table
 
 
-@click.command("reproduce", short_help="Reproduce the paper's figures (fig3 … fig8) and the tumble")
+@click.command("reproduce", short_help="The paper's figures, force-extension, tumble")
 @click.argument("figure")
 @output_option("out_dir", "output directory (one subdirectory per figure)", directory=True,
                default="flagellum-reproduce", show_default=True)

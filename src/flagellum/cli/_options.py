@@ -384,7 +384,7 @@ def polymorph_options(func):
     opts = [
         click.option("--polymorphic", type=str, default=None,
                      help="multistable filament with these forms in order, comma-separated "
-                          "(normal, semicoiled, curly1); the first given is φ = 0"),
+                          "(normal, semicoiled, curly1, coiled); the first given is φ = 0"),
         click.option("--polymorph-energies", type=str, default=None,
                      help="well energy of each form [pN per µm of filament], comma-separated "
                           "(default all 0)"),

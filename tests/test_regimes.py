@@ -192,3 +192,70 @@ def test_thermal_threshold_scales_with_the_noise_amplitude():
     assert sigma_buckled(KT_ROOM) == SIGMA_THERMAL
     assert sigma_buckled(4 * KT_ROOM) == pytest.approx(2 * SIGMA_THERMAL)
     assert sigma_buckled(1e-9) == SIGMA_BUCKLED
+
+
+# -- free swimmers and runs without a motor torque -----------------------------------------
+def wobbling_cell(t, wobble=np.radians(6.0), path_radius=0.3, omega=800.0, spin=60.0):
+    """A rigid helix (constant shape: σ = 0 exactly) whose base circles the swimming axis on
+    a radius ``path_radius`` while its axis wobbles by ``wobble`` about it and the whole cell
+    swims along e_z: the rigid motion of a free cell (docs/motor.md, "Whole cell")."""
+    pos = rotating_helix(t, omega)
+    c, s = math.cos(wobble), math.sin(wobble)
+    tilt = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    out = np.empty_like(pos)
+    axes = np.empty((len(t), 3))
+    for k, tk in enumerate(t):
+        cz, sz = math.cos(spin * tk), math.sin(spin * tk)
+        turn = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]]) @ tilt
+        base = np.array([path_radius * cz, path_radius * sz, 20.0 * tk])
+        out[k] = pos[k] @ turn.T + base
+        axes[k] = turn[:, 2]
+    return out, axes
+
+
+def test_wobbling_free_cell_is_aligned():
+    """A free cell's base circles the axis and its thrust along e_z oscillates with the
+    wobble while the shape stays constant: aligned when classified as a free swimmer. The
+    anchored criteria (centroid on the lab's axis, steady thrust) call it buckled."""
+    pos, axes = wobbling_cell(T)
+    thrust = 0.3 * (1 + 0.1 * np.cos(60.0 * T))
+    assert classify(T, thrust, pos, R, L0) == "buckled"
+    m = measure(T, thrust, pos, R, free=True, motor_axis=axes)
+    assert m.sigma_over_sigma0 < 1e-9 and m.tilt_deg < 1.0
+    assert decide(m) == "aligned"
+    assert classify(T, thrust, pos, R, L0, free=True) == "aligned"
+
+
+def test_free_cell_buckles_by_its_shape():
+    """A bent shape whose free end circles (σ/σ0 ≈ 1, as in regime (iii)) is buckled also
+    for a free swimmer; a cell whose filament turned 80° away from its motor axis is
+    reorienting (the tilt from the motor axis m(t), not from e_z)."""
+    r = L0 - R + R * np.cos(300.0 * T)
+    pos = bent(T, r, precessing(T, 0.5))
+    assert classify(T, np.full(T.shape, 0.8), pos, R, L0, free=True) == "buckled"
+    turned = rotating_helix(T, axis_tilt=np.radians(80))
+    along, thrust = np.broadcast_to([0.0, 0.0, 1.0], (len(T), 3)), np.full(T.shape, 0.05)
+    assert classify(T, thrust, turned, R, L0, free=True, motor_axis=along) == "reorienting"
+    c, s = math.cos(np.radians(80)), math.sin(np.radians(80))
+    with_body = np.broadcast_to([s, 0.0, c], (len(T), 3))  # the body turned with it
+    assert classify(T, thrust, turned, R, L0, free=True, motor_axis=with_body) == "aligned"
+
+
+def test_end_load_without_torque_is_aligned():
+    """An end load at M = 0 stretches the filament, which the anchor holds: the anchor force
+    is −F (the filament pulls on it) although the motor pushes nothing, and the helix at rest
+    has its centroid 0.34 R off the axis without bending. The motor's thrust (anchor force +
+    load) and M = 0 say: aligned, not reorienting (or buckled)."""
+    from flagellum import Filament, Params
+    from flagellum.motor import Motor
+    from flagellum.params import EndLoad
+    from flagellum.simulator import Simulator
+
+    tr = Simulator(Params(Filament(length=2.0)), Motor(0.0), end_load=EndLoad(force=0.3)).run(
+        0.01, save_every=2e-4, progress=False)
+    assert tr.thrust.mean() == pytest.approx(-0.3, rel=0.05)
+    assert classify(tr.t, tr.thrust, tr.positions, R, L0) == "reorienting"  # anchored criteria
+    assert tr.summary().regime in ("aligned", "transient")
+    from flagellum.analysis.regimes import assess, run_frame
+    a = assess(tr.t, tr.thrust, tr.positions, tr.motor_angle, R, **run_frame(tr))
+    assert a.window_regime == "aligned"

@@ -163,6 +163,42 @@ def test_bad_bracket(bracket):
         critical_torque(COARSE, bracket=bracket)
 
 
+def test_sign_change_widens_towards_the_root():
+    """The automatic bracket: widened by WIDEN per step from the start, upwards while λ < 0 at
+    both ends, downwards while λ > 0 at both, keeping the end already on the right side
+    (a linear λ(M) = M − M* with a known root M*)."""
+    from flagellum.analysis.stability import SEARCH_RANGE, WIDEN, _sign_change
+
+    for root in (0.3, 0.9, 3.0, 7.0):
+        lo, hi = _sign_change(lambda m: m - root, 1.0, 2.5)
+        assert lo < root < hi and (hi / lo == pytest.approx(WIDEN) or (lo, hi) == (1.0, 2.5))
+    for lam, what in ((lambda m: -1.0, "stable"), (lambda m: 1.0, "unstable"),
+                      (lambda m: 2.0 - m, "falls")):
+        with pytest.raises(ParameterError, match=f"bracket.*{what}"):
+            _sign_change(lam, 1.0, 2.5)
+    with pytest.raises(ParameterError, match=f"{SEARCH_RANGE[1]:g}"):
+        _sign_change(lambda m: m - 2 * SEARCH_RANGE[1], 1.0, 2.5)
+
+
+def test_automatic_bracket_finds_a_threshold_above_the_default():
+    """A small load sphere (a = 0.5 µm: M_c1 ≈ 2.9 pN·µm at N = 50, docs/stability.md, higher at N = 25) puts
+    M_c1 above the default bracket (0.5, 2): the automatic search finds the root that an
+    explicit bracket around it gives."""
+    b = Boundary("sphere", 0.5)
+    auto = critical_torque(COARSE, b, xtol=1e-4)
+    given = critical_torque(COARSE, b, (2.0, 6.0), xtol=1e-4)
+    assert auto.critical_torque > 2.0
+    assert auto.critical_torque == pytest.approx(given.critical_torque, abs=2e-4)
+
+
+def test_automatic_bracket_reports_no_sign_change(cli):
+    """The paper's free hook on a free cell body of a = 1 µm: λ > 0 at every torque
+    (docs/stability.md, "Free-swimming cell"), so the widened search ends in one line."""
+    code, _, err = cli("critical-torque", "--segment-length", "0.4", "--body-radius", "1")
+    assert_one_line_error(code, err, "bracket")
+    assert "unstable" in err and "0.25" in err
+
+
 # -- CLI -----------------------------------------------------------------------------------
 def test_cli_json_matches_api():
     r = CliRunner().invoke(stability_cmd, ["--torque", "0.5", "--segment-length", "0.4", "--json",

@@ -85,3 +85,19 @@ def test_manifold_cli_writes_files(tmp_path, capsys):
               "--f-par-max", "40", "--f-par-steps", "4", "--inv-a-max", "1", "--inv-a-steps", "2")
     assert (tmp_path / "manifold.png").exists() and (tmp_path / "surface.csv").exists()
     assert d["without_radius_correction"]["anchored"]["M"] > 0
+
+
+def test_effective_rigidity_with_the_nonlocal_friction(capsys):
+    """``--hydrodynamics sbt`` gives the rod the rigid helix' nonlocal friction: A_eff (elastic)
+    is unchanged, the rate scale A_eff/(L0³A⊥/3) scales with 1/A⊥ (App. C)."""
+    from flagellum.hydro.options import Hydrodynamics
+    from flagellum.theory.manifold import HelicalRod
+
+    rft_, sbt_ = _json(capsys, "effective-rigidity"), _json(capsys, "effective-rigidity",
+                                                            "--hydrodynamics", "sbt")
+    assert sbt_["A_eff"] == rft_["A_eff"]
+    ratio = HelicalRod.from_params().a_perp / HelicalRod.from_params(
+        hydrodynamics=Hydrodynamics("sbt")).a_perp
+    f, g = rft_["filament"], sbt_["filament"]
+    assert g["rate_scale"] == pytest.approx(f["rate_scale"] * ratio, rel=1e-12)
+    assert g["A_perp"] < f["A_perp"]  # the turns shield each other (docs/hydrodynamics.md)

@@ -166,3 +166,31 @@ def test_anchored_gap_to_the_filament_is_its_thrust_per_torque():
     assert plain["M"][0] == pytest.approx(REGRESSION["M_c1_rod_anchored"], abs=0.002)
     assert fixed["M"][0] == pytest.approx(M_c1_filament, rel=0.03)
     assert fixed["F"][0] == pytest.approx(plain["F"][0], rel=0.01)   # F_c1 hardly moves
+
+
+def test_rod_with_the_nonlocal_friction_of_the_rigid_helix():
+    """The effective rod with the rigid helix' nonlocal (SBT) friction per length. Checks:
+    its coefficients are those of the SBT resistance matrix of the same helix (its thrust per
+    torque 0.5846 /µm, docs/hydrodynamics.md: the continuum helix' Gauss nodes); the rod
+    theory is otherwise unchanged (A_eff, L0), and on the anchored line the threshold depends
+    on the friction only through F/M = −c∥/b∥ (Sec. 4.2), so it equals that of the local rod
+    given the same F/M; it lies within 3 % of the SBT linear stability of the discrete
+    filament, M_c1 = 1.585 pN·µm, F_c1 = 0.903 pN (docs/hydrodynamics.md)."""
+    from flagellum.hydro import sbt
+    from flagellum.hydro.options import Hydrodynamics
+
+    rod = HelicalRod.from_params(hydrodynamics=Hydrodynamics("sbt"))
+    assert HelicalRod.from_params(hydrodynamics=Hydrodynamics()) == ROD
+    assert (rod.L0, rod.A_eff) == (ROD.L0, ROD.A_eff)
+    p = Params()
+    x, t, w = rft.helix_nodes(Helix.from_filament(p.filament))
+    R = sbt.resistance_matrix(x, p.fluid.filament_radius, p.fluid.viscosity, p.gammas[2],
+                              tangents=t, weights=w)
+    assert rod.a_par * rod.L0 == pytest.approx(R[2, 2], rel=1e-12)
+    assert rod.a_perp * rod.L0 == pytest.approx(R[0, 0], rel=0.02)  # the transverse drags agree
+    assert -rod.c_par / rod.b_par == pytest.approx(0.5846, abs=2e-4)
+    sbt_line = load_sphere_curve(rod, [0.0]).table()
+    local = load_sphere_curve(ROD.with_thrust_per_torque(-rod.c_par / rod.b_par), [0.0]).table()
+    assert sbt_line["M"][0] == pytest.approx(local["M"][0], rel=1e-6)
+    assert sbt_line["M"][0] == pytest.approx(1.585, rel=0.03)
+    assert sbt_line["F"][0] == pytest.approx(0.903, rel=0.03)

@@ -299,7 +299,7 @@ class PointRun:
 
     def simulate(self) -> dict:
         """Run to ``time``; the summary fields, the regime and the integrator steps."""
-        from .analysis.regimes import classify
+        from .analysis.regimes import classify, run_frame
         from .helix import Helix
         from .simulator import Simulator
 
@@ -308,7 +308,7 @@ class PointRun:
         traj = sim.run(self.time, save_every=self.save_every, progress=False)
         helix = Helix.from_filament(self.params.filament)
         regime = classify(traj.t, traj.thrust, traj.positions, helix.radius, helix.axial_length,
-                          self.average_from, traj.kT)
+                          self.average_from, traj.kT, **run_frame(traj))
         return {**traj.summary(self.average_from).to_dict(), "regime": regime, "steps": sim.steps}
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from . import io
-from .analysis.regimes import RunSummary, summarize_run
+from .analysis.regimes import RunSummary, run_frame, summarize_run
 from .errors import SimulationError
 
 COMPLETE = "complete"  #: ``status`` of a finished run's main file
@@ -174,7 +174,7 @@ class Trajectory:
                              self.meta.get("helix_radius", 0.2), t_from, self.torque,
                              self.relative_motor_speed, body=(self.body_position, self.body_axis,
                                                               self.body_angular_velocity),
-                             kT=self.kT)
+                             kT=self.kT, **run_frame(self))
 
     def load_summary(self, t_from: float | None = None) -> dict:
         """Means over t ≥ ``t_from`` (default: the last half) of the end load [pN], the

@@ -39,6 +39,23 @@ the thermal fluctuations of r scaled with √(kT) (equipartition: every mode's a
 as √kT). The other regimes keep their criteria (the mean thrust, the tilt beyond 45°, the
 collapses of (iv)).
 
+A **free swimmer** (``anchor="free"``: a centred body sphere or a cell body) carries its motor
+axis with it, and its base wobbles and circles the swimming axis: the centroid leaves the lab's
+e_z axis and the force on bead 0 along e_z oscillates while the filament keeps its shape (a
+free cell with the paper's filament, a = 0.5 µm, M = 1 pN·µm: centroid 0.32 R off the axis and
+a thrust std of 11 % of its mean after 0.02 s, at σ/σ0 = 0.09). A free swimmer's window is
+therefore called buckled by its change of shape alone, σ/σ0 above :data:`SIGMA_BUCKLED`, as a
+thermal one, and its tilt is measured from the body's motor axis m(t) (the initial e_z turned
+with the body), not from e_z.
+
+With an **end load** (:class:`~flagellum.params.EndLoad`, pulling the free end along −e_z) the
+force on the anchor carries the load (−end_force in steady state), so the sign test of regime
+(i) uses the motor's own thrust, the anchor force plus the end load. A window in which the
+motor applies **no torque** (M = 0 throughout: a filament at rest or stretched by a load) has
+no regime of the driven filament; it is aligned unless its shape changes (σ/σ0) or it turns
+away (the tilt): neither the sign of a vanishing thrust (round-off) nor the centroid of a helix
+that does not rotate (0.34 R off the axis for the 4-µm filament at rest) says anything.
+
 A run that has not settled can look like another regime: the filament starts from the
 stress-free helix, and its relaxation (the centroid drifting onto the motor axis, the thrust
 settling) takes longer than a short run. :func:`assess` therefore also tests the window
@@ -110,6 +127,8 @@ class RegimeMetrics:
     swings: int  #: crossings of r(t) through its mid-range ± SWING·R (a collapse or a recovery)
     samples: int
     kT: float = 0.0  #: thermal energy of the run's noise [pN·µm] (0: deterministic)
+    free: bool = False  #: a free swimmer: buckled by σ/σ0 alone (module docstring)
+    idle: bool = False  #: the motor applies no torque in the window (module docstring)
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -138,22 +157,33 @@ def _window(t, t_from: float | None) -> np.ndarray:
 
 
 def measure(t, thrust, positions, helix_radius: float, t_from: float | None = None,
-            kT: float = 0.0) -> RegimeMetrics:
+            kT: float = 0.0, *, motor_axis=None, free: bool = False,
+            end_force=None, motor_torque=None) -> RegimeMetrics:
     """Regime observables over the window t ≥ t_from (default: the last half) of a run with
-    thermal noise at ``kT`` [pN·µm] (0: deterministic)."""
+    thermal noise at ``kT`` [pN·µm] (0: deterministic). ``motor_axis`` (n_t, 3): the motor
+    axis of each record (default e_z), from which the tilt is measured; ``free``: a free
+    swimmer; ``end_force`` (n_t,): an end load [pN], added to ``thrust``; ``motor_torque`` (n_t,):
+    the motor torque [pN·µm], zero throughout the window: ``idle`` (module docstring)."""
     t = np.asarray(t, float)
     sel = _window(t, t_from)
-    th = np.asarray(thrust, float)[sel]
+    th = np.asarray(thrust, float)
+    if end_force is not None:
+        th = th + np.asarray(end_force, float)
+    th = th[sel]
     pos = np.asarray(positions, float)[sel]
     r = end_to_end(pos)
     tip = pos[:, -1] - pos[:, 0]
-    tilt = np.degrees(np.arccos(np.clip(-tip[:, 2] / np.maximum(r, 1e-300), -1, 1)))
+    axis = np.array([0.0, 0.0, 1.0]) if motor_axis is None else np.asarray(motor_axis, float)[sel]
+    along = tip[:, 2] if motor_axis is None else np.einsum("ij,ij->i", tip, axis)
+    tilt = np.degrees(np.arccos(np.clip(-along / np.maximum(r, 1e-300), -1, 1)))
     centroid = np.hypot(*pos.mean(axis=1)[:, :2].T)
     return RegimeMetrics(
         thrust_mean=float(th.mean()), thrust_std=float(th.std()),
         sigma_over_sigma0=float(r.std() / (helix_radius / math.sqrt(2))), r_mean=float(r.mean()),
         centroid_offset=float(centroid.mean() / helix_radius), tilt_deg=float(tilt.mean()),
-        swings=count_swings(r, SWING * helix_radius), samples=int(sel.sum()), kT=float(kT))
+        swings=count_swings(r, SWING * helix_radius), samples=int(sel.sum()), kT=float(kT),
+        free=bool(free),
+        idle=motor_torque is not None and not np.any(np.asarray(motor_torque, float)[sel]))
 
 
 def sigma_buckled(kT: float = 0.0) -> float:
@@ -166,8 +196,8 @@ def sigma_buckled(kT: float = 0.0) -> float:
 
 def decide(m: RegimeMetrics) -> str:
     """The regime of a window from its :class:`RegimeMetrics` (criteria: module docstring;
-    a thermal window, kT > 0, is buckled by σ/σ0 alone)."""
-    if m.thrust_mean < 0:
+    a thermal window, kT > 0, and a free swimmer's are buckled by σ/σ0 alone)."""
+    if m.thrust_mean < 0 and not m.idle:
         return "reorienting"
     if m.sigma_over_sigma0 > SIGMA_IV and m.swings >= 2:
         return "oscillating"
@@ -175,21 +205,44 @@ def decide(m: RegimeMetrics) -> str:
         return "reorienting"
     if m.sigma_over_sigma0 > sigma_buckled(m.kT):
         return "buckled"
-    if m.kT <= 0 and (m.centroid_offset > CENTROID_BUCKLED
+    if m.kT <= 0 and not (m.free or m.idle) and (m.centroid_offset > CENTROID_BUCKLED
                       or m.thrust_std > THRUST_BUCKLED * abs(m.thrust_mean)):
         return "buckled"
     return "aligned"
 
 
 def classify(t, thrust, positions, helix_radius: float, axial_length: float | None = None,
-             t_from: float | None = None, kT: float = 0.0) -> str:
+             t_from: float | None = None, kT: float = 0.0, **frame) -> str:
     """Name the regime of the window t ≥ t_from (default: the last half) of a run with
-    thermal noise at ``kT`` [pN·µm] (0: deterministic).
+    thermal noise at ``kT`` [pN·µm] (0: deterministic); ``frame``: the keywords of
+    :func:`measure` (:func:`run_frame` of a trajectory).
 
     ``axial_length`` is accepted for compatibility and not used. The window is taken as it
     is; :func:`assess` also tests whether it has settled.
     """
-    return decide(measure(t, thrust, positions, helix_radius, t_from, kT))
+    return decide(measure(t, thrust, positions, helix_radius, t_from, kT, **frame))
+
+
+def run_frame(traj) -> dict:
+    """The keywords of :func:`measure` that a :class:`~flagellum.trajectory.Trajectory`
+    implies: ``free`` for a free anchor, the motor axis m(t) = R(φ(t)) e_z of a cell body
+    (its ``body_orientation`` φ), the end load and the motor torque."""
+    import json
+
+    from ..hydro.body import rotvec_matrix
+
+    boundary = traj.meta.get("boundary", "{}")
+    boundary = json.loads(boundary) if isinstance(boundary, str) else dict(boundary)
+    out = {"free": boundary.get("anchor") == "free"}
+    phi = getattr(traj, "body_orientation", None)
+    if phi is not None and np.any(np.asarray(phi) != 0):
+        out["motor_axis"] = np.array([rotvec_matrix(p)[:, 2] for p in np.asarray(phi, float)])
+    load = getattr(traj, "end_force", None)
+    if load is not None and np.any(np.asarray(load) != 0):
+        out["end_force"] = np.asarray(load, float)
+    if getattr(traj, "torque", None) is not None:
+        out["motor_torque"] = np.asarray(traj.torque, float)
+    return out
 
 
 # -- settled or transient -------------------------------------------------------------------
@@ -252,9 +305,11 @@ class Assessment:
 
 
 def assess(t, thrust, positions, motor_angle, helix_radius: float,
-           t_from: float | None = None, kT: float = 0.0) -> Assessment:
+           t_from: float | None = None, kT: float = 0.0, *, motor_axis=None, free: bool = False,
+           end_force=None, motor_torque=None) -> Assessment:
     """Regime of the window t ≥ t_from (default: the last half) and whether it has settled
-    (``kT``: the thermal energy of the run's noise [pN·µm], 0 for a deterministic run).
+    (``kT``: the thermal energy of the run's noise [pN·µm], 0 for a deterministic run;
+    ``motor_axis``, ``free``, ``end_force``, ``motor_torque`` as for :func:`measure`).
 
     The observables of :func:`measure` and the averages thrust, ⟨r⟩ and ω (slope of the
     unwrapped ``motor_angle``) are measured on the four quarters of the window. The regime is
@@ -272,16 +327,26 @@ def assess(t, thrust, positions, motor_angle, helix_radius: float,
     """
     t = np.asarray(t, float)
     thrust, positions = np.asarray(thrust, float), np.asarray(positions, float)
+    if end_force is not None:  # the motor's own thrust (module docstring)
+        thrust = thrust + np.asarray(end_force, float)
     motor_angle = np.asarray(motor_angle, float)
     sel = _window(t, t_from)
-    whole = measure(t[sel], thrust[sel], positions[sel], helix_radius, -math.inf, kT)
+    axis = None if motor_axis is None else np.asarray(motor_axis, float)
+    torque = None if motor_torque is None else np.asarray(motor_torque, float)
+
+    def metrics(i):
+        return measure(t[i], thrust[i], positions[i], helix_radius, -math.inf, kT,
+                       motor_axis=None if axis is None else axis[i], free=free,
+                       motor_torque=None if torque is None else torque[i])
+
+    whole = metrics(sel)
     label = decide(whole)
     if whole.samples < MIN_SAMPLES:
         return Assessment(label, label, False, ("samples",),
                           f"{whole.samples} records in the averaging window, too few "
                           f"(< {MIN_SAMPLES}) to test that it has settled")
     idx = np.array_split(np.flatnonzero(sel), 4)
-    quarters = [measure(t[i], thrust[i], positions[i], helix_radius, -math.inf, kT) for i in idx]
+    quarters = [metrics(i) for i in idx]
     ahead = {}
     for name in dict.fromkeys(n for n, _ in _CRITERIA):
         slope, se, next_value = _trend([getattr(q, name) for q in quarters])
@@ -333,11 +398,12 @@ class RunSummary(Summary):
 
 def summarize_run(t, thrust, motor_angle, positions, energy, helix_radius: float,
                   t_from: float | None = None, torque=None, motor_speed=None, body=None,
-                  kT: float = 0.0) -> RunSummary:
+                  kT: float = 0.0, **frame) -> RunSummary:
     """:func:`~flagellum.analysis.observables.summarize` plus :func:`assess` of the same window
-    (``kT``: the thermal energy of the run's noise, 0 for a deterministic run)."""
+    (``kT``: the thermal energy of the run's noise, 0 for a deterministic run; ``frame``: the
+    keywords of :func:`measure`, :func:`run_frame`)."""
     s = summarize(t, thrust, motor_angle, positions, energy, helix_radius, t_from, torque, motor_speed,
                   body)
-    a = assess(t, thrust, positions, motor_angle, helix_radius, s.t_from, kT)
+    a = assess(t, thrust, positions, motor_angle, helix_radius, s.t_from, kT, **frame)
     return RunSummary(**s.to_dict(), regime=a.regime, steady=a.steady, drifting=a.drifting,
                       regime_note=a.note)

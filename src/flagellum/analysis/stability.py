@@ -83,6 +83,12 @@ K_START, CLAMP_STIFFNESS = 1e-2, 1e4  #: hook stiffnesses [pN·µm] of the conti
 #: (λ = +0.009 /s at M = 0.5, −1.19 /s at M = 1; docs/hydrodynamics.md), so its bracket
 #: starts at 1
 BRACKETS = {"rft": (0.5, 2.0), "sbt": (1.0, 2.5)}
+#: torques |M| [pN·µm] that the automatic bracket of :func:`critical_torque` may reach: it
+#: starts from :data:`BRACKETS` and is widened by the factor :data:`WIDEN` per step (up while
+#: λ < 0 at both ends, down while λ > 0 at both) until λ changes sign. 10 pN·µm is above every
+#: threshold of the paper's model (Fig. 5: M_c1 ≤ 4.4 at a = 0.25 µm)
+SEARCH_RANGE = (0.25, 10.0)
+WIDEN = 1.25
 #: components of bead 0's velocity that are a rigid translation of the whole filament, by
 #: anchor: quotiented out of the reduced dynamics (a free swimmer's body, centred on bead 0,
 #: translates in 3D; the motor axis stays e_z, so the rotation about e_z is the only other
@@ -688,18 +694,50 @@ def linear_stability(params: Params | None = None, torque: float = 1.0,
                            (eq.motor or Motor(eq.torque)).drive, eq.motor_speed)
 
 
+def _sign_change(lam, lo: float, hi: float) -> tuple[float, float]:
+    """A bracket (M_lo, M_hi) with λ(M_lo) < 0 < λ(M_hi), widened from the positive torques
+    (``lo``, ``hi``) by :data:`WIDEN` per step within :data:`SEARCH_RANGE`: upwards while λ < 0
+    at both ends (the threshold lies higher: small load spheres and cell bodies, stiff hooks),
+    downwards while λ > 0 at both. Each step keeps the end already on the right side, so the
+    root found is the first sign change met from the starting bracket (a coarser step could
+    jump over a pair of close crossings, docs/stability.md). :class:`ParameterError` (one
+    line, ``bracket``) when no sign change lies within the range."""
+    m_min, m_max = SEARCH_RANGE
+    l_lo, l_hi = lam(lo), lam(hi)
+    while l_lo < 0 and l_hi < 0 and hi < m_max:
+        lo, l_lo = hi, l_hi
+        hi = min(WIDEN * hi, m_max)
+        l_hi = lam(hi)
+    while l_lo > 0 and l_hi > 0 and lo > m_min:
+        hi, l_hi = lo, l_lo
+        lo = max(lo / WIDEN, m_min)
+        l_lo = lam(lo)
+    if not (l_lo < 0 < l_hi):
+        what = ("λ > 0: the aligned state is unstable" if l_lo > 0 and l_hi > 0 else
+                "λ < 0: the aligned state is stable" if l_lo < 0 and l_hi < 0 else
+                "λ falls through zero instead of rising")
+        raise ParameterError("bracket", (lo, hi),
+                             f"a sign change of λ(M) from < 0 to > 0 within M = {m_min:g}…{m_max:g} "
+                             f"pN·µm; found none ({what} at every end tried, λ = {l_lo:.3g} and "
+                             f"{l_hi:.3g} /s at the last; give --bracket M_lo M_hi)")
+    return lo, hi
+
+
 def critical_torque(params: Params | None = None, boundary: Boundary | None = None,
                     bracket: tuple[float, float] | None = None, xtol: float = 1e-4,
                     hydrodynamics: Hydrodynamics | None = None) -> CriticalTorque:
-    """Buckling threshold M_c1: the root of λ(M) in ``bracket`` (paper Sec. 3.1, Sec. 3.2;
-    default :data:`BRACKETS` of the mobility model).
+    """Buckling threshold M_c1: the root of λ(M) in ``bracket`` (paper Sec. 3.1, Sec. 3.2).
+    Without ``bracket`` the search starts from :data:`BRACKETS` of the mobility model and
+    widens it until λ changes sign (:func:`_sign_change`, within :data:`SEARCH_RANGE`).
 
     All λ(M) evaluations share one continuation branch, so each Newton solve starts from the
-    nearest torque already solved (``hydrodynamics`` as for :func:`relative_equilibrium`). Raises :class:`ParameterError` unless
-    λ(M_lo) < 0 < λ(M_hi).
+    nearest torque already solved (``hydrodynamics`` as for :func:`relative_equilibrium`).
+    Raises :class:`ParameterError` unless λ(M_lo) < 0 < λ(M_hi) for a given ``bracket``, or
+    when the automatic search finds no sign change.
     """
     t0 = time.perf_counter()
-    if bracket is None:
+    automatic = bracket is None
+    if automatic:
         bracket = BRACKETS[(hydrodynamics or Hydrodynamics()).model]
     try:
         lo, hi = (check_real("bracket", float(b)) for b in bracket)
@@ -713,14 +751,18 @@ def critical_torque(params: Params | None = None, boundary: Boundary | None = No
     branch = _Branch(params or Params(), boundary or Boundary(), hydrodynamics=hydrodynamics)
     results: dict[float, StabilityResult] = {}
 
-    def lam(M: float) -> float:
-        results[M] = linear_stability(equilibrium=branch.at(M))
+    def lam(M: float) -> float:  # memoized: brentq evaluates the bracket's ends again
+        if M not in results:
+            results[M] = linear_stability(equilibrium=branch.at(M))
         return results[M].lambda_
 
-    l_lo, l_hi = lam(lo), lam(hi)
-    if not (l_lo < 0 < l_hi):
-        raise ParameterError("bracket", tuple(bracket), "torques with λ(M_lo) < 0 < λ(M_hi) "
-                             f"(here λ = {l_lo:.3g} and {l_hi:.3g} /s)")
+    if automatic:  # BRACKETS are positive torques
+        lo, hi = _sign_change(lam, lo, hi)
+    else:
+        l_lo, l_hi = lam(lo), lam(hi)
+        if not (l_lo < 0 < l_hi):
+            raise ParameterError("bracket", tuple(bracket), "torques with λ(M_lo) < 0 < λ(M_hi) "
+                                 f"(here λ = {l_lo:.3g} and {l_hi:.3g} /s)")
     mc = brentq(lam, lo, hi, xtol=xtol)
     r = results[mc] if mc in results else linear_stability(equilibrium=branch.at(mc))
     return CriticalTorque(float(mc), r.thrust, r.omega, r.velocity, r.frequency, r.lab_frequency,
@@ -733,7 +775,8 @@ def critical_speed(params: Params | None = None, boundary: Boundary | None = Non
                    torque_bracket: tuple[float, float] | None = None) -> CriticalTorque:
     """Critical rotation rate ω_c1 of a speed clamp: the motor speed (relative to the body)
     above which the clamped aligned state is unstable, the root of λ_clamp(ω) in
-    ``bracket`` [rad/s] (default: the speeds of the torques :data:`BRACKETS`), to ``xtol``
+    ``bracket`` [rad/s] (default: the speeds of the torques :data:`BRACKETS`, widened as in
+    :func:`critical_torque`), to ``xtol``
     [rad/s]; or ``torque_bracket`` (M_lo, M_hi): the speeds of the torque-driven states
     there.
 
@@ -745,10 +788,22 @@ def critical_speed(params: Params | None = None, boundary: Boundary | None = Non
     """
     t0 = time.perf_counter()
     branch = _Branch(params or Params(), boundary or Boundary(), hydrodynamics=hydrodynamics)
+    xtol = check_range("xtol", xtol, 0.0, 1e4)
+    results: dict[float, StabilityResult] = {}
+
+    def lam(M: float) -> float:  # memoized: brentq evaluates the bracket's ends again
+        if M not in results:
+            eq = branch.at(M)
+            eq = replace(eq, motor=Motor(drive="speed", speed=eq.motor_speed))
+            results[M] = linear_stability(equilibrium=eq)
+        return results[M].lambda_
+
     if bracket is None:
         lo, hi = torque_bracket or BRACKETS[branch.hydrodynamics.model]
         for m in (lo, hi):
             _check_torque(m)
+        if torque_bracket is None:  # widened as for critical_torque
+            lo, hi = _sign_change(lam, lo, hi)
         s_lo, s_hi = branch.at(lo).motor_speed, branch.at(hi).motor_speed
     else:
         try:
@@ -758,14 +813,6 @@ def critical_speed(params: Params | None = None, boundary: Boundary | None = Non
         if not (s_lo < s_hi and s_lo * s_hi > 0):
             raise ParameterError("bracket", tuple(bracket), "ω_lo < ω_hi, both nonzero and of one sign")
         lo, hi = (_on_drive(branch, Motor(drive="speed", speed=w)).torque for w in (s_lo, s_hi))
-    xtol = check_range("xtol", xtol, 0.0, 1e4)
-    results: dict[float, StabilityResult] = {}
-
-    def lam(M: float) -> float:
-        eq = branch.at(M)
-        eq = replace(eq, motor=Motor(drive="speed", speed=eq.motor_speed))
-        results[M] = linear_stability(equilibrium=eq)
-        return results[M].lambda_
 
     l_lo, l_hi = lam(lo), lam(hi)
     if not (l_lo < 0 < l_hi):
@@ -844,6 +891,6 @@ def simulated_growth_rate(equilibrium: RelativeEquilibrium, t_end: float, *,
     return GrowthFit(float(rate), t, dev, t[k], a[k])
 
 
-__all__ = ["BRACKETS", "DRIFT", "RelativeEquilibrium", "StabilityResult", "CriticalTorque",
+__all__ = ["BRACKETS", "SEARCH_RANGE", "WIDEN", "DRIFT", "RelativeEquilibrium", "StabilityResult", "CriticalTorque",
            "GrowthFit", "relative_equilibrium", "linear_stability", "critical_torque",
            "critical_speed", "steady_drive", "simulated_growth_rate"]

@@ -50,8 +50,9 @@ def stability(n_eigs, as_json, **kwargs):
 @hydro_options
 @threshold_drive_options
 @click.option("--bracket", type=float, nargs=2, default=None,
-              help="torques M_lo M_hi [pN·µm] with λ(M_lo) < 0 < λ(M_hi) "
-                   "(default 0.5 2 with rft, 1 2.5 with sbt); motor speeds [rad/s] with --motor-speed")
+              help="torques M_lo M_hi [pN·µm] with λ(M_lo) < 0 < λ(M_hi) (default: found "
+                   "automatically, widened from 0.5 2 with rft, 1 2.5 with sbt until λ changes "
+                   "sign within 0.25–10); motor speeds [rad/s] with --motor-speed")
 @click.option("--xtol", type=float, default=None,
               help="tolerance on M_c1 [pN·µm] (default 1e-4), on ω_c1 [rad/s] with --motor-speed (default 0.1)")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")

@@ -14,7 +14,8 @@ import numpy as np
 from ..errors import FlagellumError, ParameterError
 from ..paper import HELICES
 from ..params import check_range, check_real
-from ._options import output_option, param_options, params_from_cli, time_option
+from ._options import (hydro_from_cli, hydro_options, output_option, param_options,
+                       params_from_cli, time_option)
 from ._output import emit_json, emit_table
 
 
@@ -97,15 +98,21 @@ def buckling(m_hat, f_par, f_perp, chi, base, top, force_profile, torque_profile
 @click.option("--inv-a-steps", type=int, default=21, show_default=True)
 @click.option("--base", default="hinged", show_default=True, help="hinged | clamped")
 @click.option("--workers", type=int, default=2, show_default=True, help="processes")
+@hydro_options
 @click.option("--json", "as_json", is_flag=True, help="print the summary as JSON")
 def manifold(out_dir, m_max, m_steps, f_par_max, f_par_steps, inv_a_max, inv_a_steps, base,
              workers, as_json, **kwargs):
-    """Critical manifold, buckling curves, plane of Eq. (31) and M_c1(1/a) (Fig. 7)."""
+    """Critical manifold, buckling curves, plane of Eq. (31) and M_c1(1/a) (Fig. 7).
+
+    With ``--hydrodynamics sbt`` the rod's friction per length is that of the rigid helix'
+    nonlocal resistance instead of the full-turn RFT coefficients (``--hydro-refresh`` has
+    no effect here); the load sphere keeps its Stokes drag alone."""
     from ..parallel import check_workers
     from ..params import check_choice
     from ..theory.buckling import BASES
     from ..theory.manifold import compute_manifold, write_manifold
 
+    hydrodynamics = hydro_from_cli(kwargs)
     params = params_from_cli(kwargs)
     check_choice("base", base, BASES)
     grid = dict(
@@ -115,7 +122,8 @@ def manifold(out_dir, m_max, m_steps, f_par_max, f_par_steps, inv_a_max, inv_a_s
         inv_a_values=np.linspace(0, check_range("inv_a_max", inv_a_max, 0, 1000),
                                  _count("inv_a_steps", inv_a_steps, 1, 1001)))
     try:
-        result = compute_manifold(params, base=base, workers=check_workers("workers", workers), **grid)
+        result = compute_manifold(params, base=base, workers=check_workers("workers", workers),
+                                  hydrodynamics=hydrodynamics, **grid)
     except (ArithmeticError, IndexError, ValueError, np.linalg.LinAlgError) as exc:
         if isinstance(exc, ParameterError):
             raise
@@ -175,12 +183,13 @@ def rigid_helix(torque, tilt, t_end, origin, as_json, **kwargs):
         click.echo("B eigenvalues [pN µm s]: " + ", ".join(f"{x:.6g}" for x in evals))
 
 
-def effective_rigidity_summary(params) -> dict:
-    """A_eff (App. C) and the Fig. 8 scales for ``params`` and for the two geometries."""
+def effective_rigidity_summary(params, hydrodynamics=None) -> dict:
+    """A_eff (App. C) and the Fig. 8 scales for ``params`` and for the two geometries (the
+    rate scale with the rod's friction of ``hydrodynamics``, :meth:`HelicalRod.from_params`)."""
     from ..theory.manifold import HelicalRod
 
     def scales(p):
-        rod = HelicalRod.from_params(p)
+        rod = HelicalRod.from_params(p, hydrodynamics)
         return {"kappa0": p.filament.kappa0, "tau0": p.filament.tau0,
                 "pitch_angle_deg": math.degrees(rod.pitch_angle), "L0": rod.L0,
                 "A_eff": rod.A_eff, "A_eff_over_L0": rod.torque_scale,
@@ -195,13 +204,15 @@ def effective_rigidity_summary(params) -> dict:
 
 @theory.command("effective-rigidity", short_help="Effective bending rigidity A_eff (App. C)")
 @param_options
+@hydro_options
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
 @click.option("--measure", is_flag=True,
               help="also measure A_eff on the discrete rod (end moments, a few seconds)")
 def effective_rigidity(as_json, measure, **kwargs):
     """Effective bending rigidity A_eff (App. C) and the master-curve scales of Fig. 8."""
+    hydrodynamics = hydro_from_cli(kwargs)
     params = params_from_cli(kwargs)
-    out = effective_rigidity_summary(params)
+    out = effective_rigidity_summary(params, hydrodynamics)
     if measure:
         from ..theory.effective_rigidity import measured_bending_rigidity
 

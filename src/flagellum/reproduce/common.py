@@ -225,7 +225,7 @@ def simulate_point(spec: dict) -> dict:
     Returns the observables (thrust mean/min/max/std, ω = mean motor speed, χ, ⟨r⟩, σ,
     regime) or ``error`` when the run failed with every solver setting tried.
     """
-    from ..analysis.regimes import classify
+    from ..analysis.regimes import classify, run_frame
     from ..helix import Helix
     from ..motor import Motor
     from ..params import Params
@@ -278,7 +278,8 @@ def simulate_point(spec: dict) -> dict:
     sel = tr.t >= t_from - 1e-12
     th = tr.thrust[sel]
     sigma0 = helix.radius / math.sqrt(2)
-    regime = classify(tr.t, tr.thrust, tr.positions, helix.radius, helix.axial_length, t_from, tr.kT)
+    regime = classify(tr.t, tr.thrust, tr.positions, helix.radius, helix.axial_length, t_from, tr.kT,
+                      **run_frame(tr))
     sig = s.end_to_end_std / sigma0
     # fast part of σ: r about its running mean over FAST_WINDOW (compressional fluctuations,
     # without the slow drifts of weakly damped modes)

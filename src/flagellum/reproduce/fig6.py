@@ -161,25 +161,14 @@ def plot(q: dict, quality: str, out_dir: Path):
 
 def nonlocal_coefficients(params=None) -> dict:
     """The rigid helix' axial coefficients per axial length L0 from the nonlocal mobility
-    (:func:`flagellum.hydro.sbt.resistance_matrix` on the continuum helix' Gauss nodes, torques
-    about the axis), beside the local ones of the rod theory: ``sbt_a_par`` = A∥/L0,
-    ``sbt_b_par`` = B∥/L0, ``sbt_c_par`` = C∥/L0 and the thrust per torque −C∥/B∥ of the
-    helix held on its axis."""
-    from ..helix import Helix
-    from ..hydro import sbt
-    from ..hydro.rft import helix_nodes
-    from ..params import Params
+    (:func:`flagellum.theory.manifold.nonlocal_coefficients`), beside the local ones of the
+    rod theory: ``sbt_a_par`` = A∥/L0, ``sbt_b_par`` = B∥/L0, ``sbt_c_par`` = C∥/L0 and the
+    thrust per torque −C∥/B∥ of the helix held on its axis."""
+    from ..theory.manifold import nonlocal_coefficients as rod_coefficients
 
-    params = params or Params()
-    helix = Helix.from_filament(params.filament)
-    x, t, w = helix_nodes(helix)
-    fl = params.fluid
-    R = sbt.resistance_matrix(x, fl.filament_radius, fl.viscosity, params.gammas[2],
-                              tangents=t, weights=w)
-    L0 = helix.axial_length
-    return {"sbt_a_par": float(R[2, 2] / L0), "sbt_b_par": float(R[5, 5] / L0),
-            "sbt_c_par": float(R[2, 5] / L0),
-            "sbt_thrust_per_torque": float(-R[2, 5] / R[5, 5])}
+    co = rod_coefficients(params)
+    return {"sbt_a_par": co["A_par"], "sbt_b_par": co["B_par"], "sbt_c_par": co["C_par"],
+            "sbt_thrust_per_torque": -co["C_par"] / co["B_par"]}
 
 
 def compute(quality: str, cache=None) -> Fig6Data:

@@ -44,6 +44,28 @@ from .buckling import (BucklingProblem, CriticalPoint, NoConvergenceError,
 LEVELS = tuple(range(0, 301, 25))
 
 
+def nonlocal_coefficients(params: Params | None = None) -> dict:
+    """Friction coefficients per axial length L0 of the rigid continuum helix with the
+    nonlocal mobility (:func:`flagellum.hydro.sbt.resistance_matrix` on the helix' Gauss
+    nodes, torques about its axis), in the convention of Eq. (38): ``A_par`` = A∥/L0,
+    ``B_par`` = B∥/L0, ``C_par`` = C∥/L0 and ``A_perp`` = A⊥/L0, the mean of the two
+    transverse translational drags. They replace the local coefficients of the effective rod
+    when the rod is given the nonlocal drag of the whole helix (a rigid-body average: the
+    flow of a bending mode is not resolved, docs/theory.md)."""
+    from ..hydro import sbt
+    from ..hydro.rft import helix_nodes
+
+    params = params or Params()
+    helix = Helix.from_filament(params.filament)
+    x, t, w = helix_nodes(helix)
+    fl = params.fluid
+    R = sbt.resistance_matrix(x, fl.filament_radius, fl.viscosity, params.gammas[2],
+                              tangents=t, weights=w)
+    L0 = helix.axial_length
+    return {"A_perp": float((R[0, 0] + R[1, 1]) / (2 * L0)), "A_par": float(R[2, 2] / L0),
+            "B_par": float(R[5, 5] / L0), "C_par": float(R[2, 5] / L0)}
+
+
 @dataclass(frozen=True)
 class HelicalRod:
     """The helical filament as an effective rod (paper Sec. 4.1, App. A and C). Units µm, pN, s."""
@@ -61,7 +83,10 @@ class HelicalRod:
     viscosity: float
 
     @classmethod
-    def from_params(cls, params: Params | None = None) -> "HelicalRod":
+    def from_params(cls, params: Params | None = None, hydrodynamics=None) -> "HelicalRod":
+        """The rod of the filament of ``params``. Its friction per length: the full-turn RFT
+        coefficients of Eq. (38) (the paper's, default), or with a nonlocal ``hydrodynamics``
+        those of the rigid helix' nonlocal resistance (:func:`nonlocal_coefficients`)."""
         params = params or Params()
         fil = params.filament
         helix = Helix.from_filament(fil)
@@ -70,11 +95,13 @@ class HelicalRod:
         if not L0 > 0:  # a ring (τ0 = 0) has no helix axis to buckle about
             raise ParameterError("tau0", fil.tau0, "> 0 for the helical rod theory (a helix "
                                  "with an axis)")
-        co = full_turn_coefficients(helix, gp, gn)
+        if hydrodynamics is None or hydrodynamics.is_local:
+            co = {k: v / L0 for k, v in full_turn_coefficients(helix, gp, gn).items()}
+        else:
+            co = nonlocal_coefficients(params)
         return cls(L0, effective_bending_rigidity(helix, fil.bend_rigidity, fil.twist_rigidity),
                    fil.bend_rigidity, helix.pitch_angle, helix.radius, helix.chirality,
-                   co["A_perp"] / L0, co["A_par"] / L0, co["B_par"] / L0, co["C_par"] / L0,
-                   params.fluid.viscosity)
+                   co["A_perp"], co["A_par"], co["B_par"], co["C_par"], params.fluid.viscosity)
 
     # scales of the hats (Sec. 4.1)
     @property
@@ -347,11 +374,12 @@ class ManifoldResult:
 
 def compute_manifold(params: Params | None = None, *, m_values=None, f_par_values=None,
                      levels=LEVELS, inv_a_values=None, base: str = "hinged",
-                     workers: int | None = None) -> ManifoldResult:
-    """Grid, level curves, plane intersections and load-sphere curves (Fig. 7, Fig. 5(a))."""
+                     workers: int | None = None, hydrodynamics=None) -> ManifoldResult:
+    """Grid, level curves, plane intersections and load-sphere curves (Fig. 7, Fig. 5(a));
+    ``hydrodynamics``: the rod's friction (:meth:`HelicalRod.from_params`)."""
     import time
 
-    rod = HelicalRod.from_params(params)
+    rod = HelicalRod.from_params(params, hydrodynamics)
     workers = workers or default_workers(2)
     m_values = np.linspace(0, 20, 41) if m_values is None else np.asarray(m_values, float)
     f_par_values = np.linspace(0, 120, 41) if f_par_values is None else np.asarray(f_par_values, float)

@@ -44,6 +44,8 @@ NEWTON_TOL = 1e-6
 #: √(2kTΔt/(γ⊥h)) (≈ 0.027 µm at Δt = 5e-5 s): trajectories then differ from fully converged
 #: ones by ≈ 1e-5 µm, without accumulating over 2000 steps (docs/numerics.md)
 THERMAL_TOL_FRACTION = 2e-3
+#: a stale Jacobian is refreshed when the chord iteration contracts more slowly than this
+RHO_REFRESH = 0.9
 
 
 @njit(cache=True)
@@ -227,6 +229,7 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
     aa_f, aa_g = np.zeros(ny), np.zeros(ny)
     aa_df, aa_dg = np.zeros((aa_m, ny)), np.zeros((aa_m, ny))
     aa_a, aa_gam = np.zeros((aa_m, aa_m)), np.zeros(aa_m)
+    yw2, dw2 = np.zeros(ny), np.zeros(ny)
     n_iter = 0
     n_jac = 0
     kl = ab.shape[1] - backup.shape[1]  # the model's Jacobian band, from the storage sizes
@@ -263,6 +266,7 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
         converged = False
         prev = np.inf
         na = 0  # Anderson history (differences of chord steps and of their images)
+        jac_here = False  # the factorized Jacobian was evaluated at the last accepted iterate
         for it in range(max_iter):
             fresh = jac_age < 0 or jac_age >= jac_every
             if fresh:
@@ -289,7 +293,7 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
                 err = max(err, abs(d[i]))
             n_iter += 1
             if not np.isfinite(err):
-                break
+                err = np.inf
             # converged when the update is below tol or, with noise, the error left after it
             # estimated from the contraction rate ρ (Hairer & Wanner IV.8: ρ/(1 − ρ)·|d|)
             rho = err / prev if prev < np.inf and kT > 0.0 else 1.0
@@ -298,10 +302,28 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
                     y[i] += d[i]
                 converged = True
                 break
-            if err > slow * prev and not fresh:  # stale Jacobian too slow: refresh here
+            if err > slow * prev:
+                # diverging: back to the last iterate that contracted, and from there a Newton
+                # step with the Jacobian evaluated there (or, if it was, half the step): large
+                # thermal kicks of soft filaments leave the region where a chord step converges
+                for i in range(ny):
+                    y[i] = yw2[i]
+                if jac_here:
+                    for i in range(ny):
+                        y[i] += 0.5 * dw2[i]
+                    jac_here = False
                 jac_age = -1
+                na = 0
+                prev = np.inf
+                continue
+            if not fresh and err > RHO_REFRESH * prev and err > 10.0 * tol:
+                jac_age = -1  # contracting too slowly for a stale Jacobian: refresh here
                 continue
             prev = err
+            for i in range(ny):
+                yw2[i] = y[i]
+                dw2[i] = d[i]
+            jac_here = fresh
             _anderson(y, d, aa_f, aa_g, aa_df, aa_dg, aa_a, aa_gam, na, aa_m)
             na += 1
         if not converged:

@@ -259,8 +259,9 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
                 d[i] += (1.0 - theta) * dt * fn[i]
         for i in range(ny):
             fn[i] = d[i]
-        if beta != hist[2]:
-            jac_age = -1
+        # a factorization of I − β'ΔtJ with another β' (an Euler step after a restart, then
+        # BDF2 again) is kept: the chord iteration with it still contracts, by
+        # |1 − β/β'| ≤ 1/2 along the stiff modes, and converges to the same solution
         prm[K.P_TORQUE] = torques[k]
         # predictor y_n: the linear solve filters the noise through the stiff modes
         converged = False
@@ -391,6 +392,7 @@ class ImplicitStepper:
             model.refresh_mobility(np.asarray(y0, float), force=True)
         self._no_increments = np.zeros((0, 0))
         self.n_steps = self.n_iter = self.n_jac = 0
+        self._jac_age = -1
         self.reset(t0, y0)
 
     @classmethod
@@ -412,10 +414,12 @@ class ImplicitStepper:
         return self.rng.bit_generator.state
 
     def reset(self, t0: float, y0: np.ndarray) -> None:
+        """Restart at (t0, y0) without BDF2 history. The factorized Jacobian is kept (a
+        restart follows re-centred charts or a new frame rate, which change it little): the
+        iteration converges to the same solution with it and refreshes it when it diverges."""
         self.t = float(t0)
         self.y = np.array(y0, float)
-        self._jac_age = -1
-        self._hist = np.zeros(4)  # new right-hand side: no BDF2 history
+        self._hist[0] = self._hist[1] = 0.0  # no BDF2 history (β and pivoting of the factors stay)
 
     def advance(self, t: float) -> np.ndarray:
         span = t - self.t

@@ -44,8 +44,8 @@ NEWTON_TOL = 1e-6
 #: √(2kTΔt/(γ⊥h)) (≈ 0.027 µm at Δt = 5e-5 s): trajectories then differ from fully converged
 #: ones by ≈ 1e-5 µm, without accumulating over 2000 steps (docs/numerics.md)
 THERMAL_TOL_FRACTION = 2e-3
-#: a stale Jacobian is refreshed when the chord iteration contracts more slowly than this
-RHO_REFRESH = 0.9
+#: a chord step that grows the update more than this many times is undone (see implicit_steps)
+REVERT = 4.0
 
 
 @njit(cache=True)
@@ -303,8 +303,12 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
                     y[i] += d[i]
                 converged = True
                 break
+            if err > slow * prev and not fresh and err < REVERT * prev:
+                jac_age = -1  # stale Jacobian too slow: refresh here (and judge it afresh)
+                prev = np.inf
+                continue
             if err > slow * prev:
-                # diverging: back to the last iterate that contracted, and from there a Newton
+                # far off: back to the last iterate that contracted, and from there a Newton
                 # step with the Jacobian evaluated there (or, if it was, half the step): large
                 # thermal kicks of soft filaments leave the region where a chord step converges
                 for i in range(ny):
@@ -316,9 +320,6 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
                 jac_age = -1
                 na = 0
                 prev = np.inf
-                continue
-            if not fresh and err > RHO_REFRESH * prev and err > 10.0 * tol:
-                jac_age = -1  # contracting too slowly for a stale Jacobian: refresh here
                 continue
             prev = err
             for i in range(ny):

@@ -393,7 +393,6 @@ class ImplicitStepper:
             model.refresh_mobility(np.asarray(y0, float), force=True)
         self._no_increments = np.zeros((0, 0))
         self.n_steps = self.n_iter = self.n_jac = 0
-        self._jac_age = -1
         self.reset(t0, y0)
 
     @classmethod
@@ -415,12 +414,12 @@ class ImplicitStepper:
         return self.rng.bit_generator.state
 
     def reset(self, t0: float, y0: np.ndarray) -> None:
-        """Restart at (t0, y0) without BDF2 history. The factorized Jacobian is kept (a
-        restart follows re-centred charts or a new frame rate, which change it little): the
-        iteration converges to the same solution with it and refreshes it when it diverges."""
+        """Restart at (t0, y0) as a new stepper would (no BDF2 history, a fresh Jacobian), so
+        that a run resumed from a checkpoint repeats the uninterrupted one bit for bit."""
         self.t = float(t0)
         self.y = np.array(y0, float)
-        self._hist[0] = self._hist[1] = 0.0  # no BDF2 history (β and pivoting of the factors stay)
+        self._jac_age = -1
+        self._hist = np.zeros(4)  # new right-hand side: no BDF2 history
 
     def advance(self, t: float) -> np.ndarray:
         span = t - self.t

@@ -16,7 +16,11 @@ so the scheme samples the Boltzmann distribution to first order in Δt. The impl
 equation is solved by a chord (simplified Newton) iteration with a banded Jacobian that is
 reused over steps, accelerated by Anderson mixing (:func:`_anderson`); the Jacobian is
 refreshed only when the iteration diverges (the thermal kicks of a step are large at the bond
-scale, so a stale Jacobian converges slowly, which the mixing tolerates). With noise the
+scale, so a stale Jacobian converges slowly, which the mixing tolerates). An update that grows
+the next one more than :data:`REVERT` times is undone, and a Newton step is taken from the last
+contracting iterate with the Jacobian evaluated there (soft filaments: their kicks are not
+taken back by the bending within the step, and the step's end lies where a chord iteration
+from y_n diverges). With noise the
 tolerance is a small fraction of the thermal step (:data:`THERMAL_TOL_FRACTION`).
 Random numbers come from numpy's PCG64 in chunks, so a stopped run resumes the same stream.
 """

@@ -61,3 +61,26 @@ def test_general_kernel_where_pruning_would_be_wrong():
     """A cell body keeps the general kernels (the pruned ones lack its path)."""
     sim = Simulator(Params(), Motor(1.0), Boundary(anchor="free", body_radius=0.5))
     assert sim.model.rhs_kernel is K.rhs and not K.specialised(sim.model.iprm)
+
+
+@pytest.mark.parametrize("hydro", ["rft", "sbt"])
+@pytest.mark.parametrize("motor", [Motor(1.3), Motor(drive="speed", speed=900.0)])
+def test_cell_scratch_in_the_workspace_carries_nothing_between_calls(hydro, motor):
+    """`cell_motion` keeps its small arrays in the workspace (CW): filling that scratch with
+    NaN or garbage between calls must leave the right-hand side unchanged bit for bit
+    (every slot is reset or written before it is read), with local and nonlocal mobility
+    and with the torque and the speed-clamp drives (clamped hook: the 7×7 problem)."""
+    bd = Boundary(anchor="free", body_radius=0.5, motor_offset=30.0,
+                  **({} if motor.drive == "torque" else {"hook": "clamped"}))
+    sim = Simulator(Params(), motor, bd, hydrodynamics=Hydrodynamics(model=hydro))
+    m = sim.model
+    y = sim.y.copy()
+    y[3:-3] += np.random.default_rng(3).normal(0.0, 0.02, len(y) - 6)
+    m.refresh_mobility(y, force=True)
+    cw = m.kernel_arrays[-1][10]
+    assert cw.shape == (6, 6)
+    a, b = m.rhs(0.0, y).copy(), None
+    for fill in (np.nan, 1e30):
+        cw[:] = fill
+        b = m.rhs(0.0, y).copy()
+        assert np.array_equal(a, b)

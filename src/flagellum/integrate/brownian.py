@@ -16,7 +16,11 @@ so the scheme samples the Boltzmann distribution to first order in Δt. The impl
 equation is solved by a chord (simplified Newton) iteration with a banded Jacobian that is
 reused over steps, accelerated by Anderson mixing (:func:`_anderson`); the Jacobian is
 refreshed only when the iteration diverges (the thermal kicks of a step are large at the bond
-scale, so a stale Jacobian converges slowly, which the mixing tolerates). With noise the
+scale, so a stale Jacobian converges slowly, which the mixing tolerates). An update that grows
+the next one more than :data:`REVERT` times is undone, and a Newton step is taken from the last
+contracting iterate with the Jacobian evaluated there (soft filaments: their kicks are not
+taken back by the bending within the step, and the step's end lies where a chord iteration
+from y_n diverges). With noise the
 tolerance is a small fraction of the thermal step (:data:`THERMAL_TOL_FRACTION`).
 Random numbers come from numpy's PCG64 in chunks, so a stopped run resumes the same stream.
 """
@@ -44,6 +48,8 @@ NEWTON_TOL = 1e-6
 #: √(2kTΔt/(γ⊥h)) (≈ 0.027 µm at Δt = 5e-5 s): trajectories then differ from fully converged
 #: ones by ≈ 1e-5 µm, without accumulating over 2000 steps (docs/numerics.md)
 THERMAL_TOL_FRACTION = 2e-3
+#: a chord step that grows the update more than this many times is undone (see implicit_steps)
+REVERT = 4.0
 
 
 @njit(cache=True)
@@ -227,6 +233,7 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
     aa_f, aa_g = np.zeros(ny), np.zeros(ny)
     aa_df, aa_dg = np.zeros((aa_m, ny)), np.zeros((aa_m, ny))
     aa_a, aa_gam = np.zeros((aa_m, aa_m)), np.zeros(aa_m)
+    yw2, dw2 = np.zeros(ny), np.zeros(ny)
     n_iter = 0
     n_jac = 0
     kl = ab.shape[1] - backup.shape[1]  # the model's Jacobian band, from the storage sizes
@@ -256,13 +263,15 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
                 d[i] += (1.0 - theta) * dt * fn[i]
         for i in range(ny):
             fn[i] = d[i]
-        if beta != hist[2]:
-            jac_age = -1
+        # a factorization of I − β'ΔtJ with another β' (an Euler step after a restart, then
+        # BDF2 again) is kept: the chord iteration with it still contracts, by
+        # |1 − β/β'| ≤ 1/2 along the stiff modes, and converges to the same solution
         prm[K.P_TORQUE] = torques[k]
         # predictor y_n: the linear solve filters the noise through the stiff modes
         converged = False
         prev = np.inf
         na = 0  # Anderson history (differences of chord steps and of their images)
+        jac_here = False  # the factorized Jacobian was evaluated at the last accepted iterate
         for it in range(max_iter):
             fresh = jac_age < 0 or jac_age >= jac_every
             if fresh:
@@ -289,7 +298,7 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
                 err = max(err, abs(d[i]))
             n_iter += 1
             if not np.isfinite(err):
-                break
+                err = np.inf
             # converged when the update is below tol or, with noise, the error left after it
             # estimated from the contraction rate ρ (Hairer & Wanner IV.8: ρ/(1 − ρ)·|d|)
             rho = err / prev if prev < np.inf and kT > 0.0 else 1.0
@@ -298,10 +307,29 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
                     y[i] += d[i]
                 converged = True
                 break
-            if err > slow * prev and not fresh:  # stale Jacobian too slow: refresh here
+            if err > slow * prev and not fresh and err < REVERT * prev:
+                jac_age = -1  # stale Jacobian too slow: refresh here (and judge it afresh)
+                prev = np.inf
+                continue
+            if err > slow * prev:
+                # far off: back to the last iterate that contracted, and from there a Newton
+                # step with the Jacobian evaluated there (or, if it was, half the step): large
+                # thermal kicks of soft filaments leave the region where a chord step converges
+                for i in range(ny):
+                    y[i] = yw2[i]
+                if jac_here:
+                    for i in range(ny):
+                        y[i] += 0.5 * dw2[i]
+                    jac_here = False
                 jac_age = -1
+                na = 0
+                prev = np.inf
                 continue
             prev = err
+            for i in range(ny):
+                yw2[i] = y[i]
+                dw2[i] = d[i]
+            jac_here = fresh
             _anderson(y, d, aa_f, aa_g, aa_df, aa_dg, aa_a, aa_gam, na, aa_m)
             na += 1
         if not converged:
@@ -390,6 +418,8 @@ class ImplicitStepper:
         return self.rng.bit_generator.state
 
     def reset(self, t0: float, y0: np.ndarray) -> None:
+        """Restart at (t0, y0) as a new stepper would (no BDF2 history, a fresh Jacobian), so
+        that a run resumed from a checkpoint repeats the uninterrupted one bit for bit."""
         self.t = float(t0)
         self.y = np.array(y0, float)
         self._jac_age = -1

@@ -248,13 +248,14 @@ NEAR_BEADS = 2
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def workspace(n, nonlocal_size=0):
-    """(T, E1, E2, LEN, S, GT, GTH, DR, V, A1, DM): see :func:`frames`, :func:`elastic`,
-    :func:`rhs`; DM (``nonlocal_size`` square, 3(n+1) for a nonlocal mobility) is the frozen
+    """(T, E1, E2, LEN, S, GT, GTH, DR, V, A1, CW, DM): see :func:`frames`, :func:`elastic`,
+    :func:`rhs`, :func:`cell_motion` (CW); DM (``nonlocal_size`` square, 3(n+1) for a nonlocal mobility) is the frozen
     mobility correction ΔM."""
     n1 = n + 1
     return (np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros(n1),
             np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros(n1), np.zeros((n1, 3)),
-            np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros((nonlocal_size, nonlocal_size)))
+            np.zeros((n1, 3)), np.zeros((n1, 3)), np.zeros((6, 6)),
+            np.zeros((nonlocal_size, nonlocal_size)))
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
@@ -369,7 +370,7 @@ def _cell_bead_correction(DM, DR, V, g, n, width):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width):
+def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
     """Motion of a cell body (anchor ``ANCHOR_CELL``) and of the hook frame on it.
 
     The body (centre X, orientation Q = exp([φ]×) from the state's last three values) carries
@@ -393,7 +394,10 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width):
     forces: the bead forces and the body's (f0, d × f0 + …) of the 6×6 problem (a clamped
     hook's rate about m eliminated: the torque less m times its row). The clamped hook frame
     follows ΔΩ across m (its rate about m is its own balance), and the motor's load line
-    w0 + b M takes the same correction, so clamp and law stay exact."""
+    w0 + b M takes the same correction, so clamp and law stay exact.
+
+    ``CW`` (6, 6): scratch of the generalized forces and their corrections (columns 0–1 gb,
+    2–3 ΔM gb, 4 g, 5 ΔΩ), from the workspace: the right-hand side allocates none of them."""
     n = iprm[I_N]
     h, gpar, gperp, grot = prm[P_H], prm[P_GPAR], prm[P_GPERP], prm[P_GROT]
     off = P_LAW + 2 * (iprm[I_NLAW] + iprm[I_NLAW_CW])
@@ -474,7 +478,10 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width):
         for i in range(3):
             r[3 + i, 0] = df[i] + tk[i]
             r[3 + i, 1] = -m[i]
-    gb = np.zeros((6, 2))  # generalized forces on (V, Ω), for the nonlocal correction
+    gb = CW[:, 0:2]  # generalized forces on (V, Ω), for the nonlocal correction
+    dq = CW[:, 2:4]  # ΔM g on (V, Ω): column 0 without, column 1 per unit motor torque
+    gb[:, :] = 0.0
+    dq[:, :] = 0.0
     if width >= 0:
         for c in range(2):
             for i in range(6):
@@ -494,7 +501,6 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width):
             wh1[i] = tm * t[i] / zt + (m[i] - tm * t[i]) / zp
         w0 = (wh0[0] - r[3, 0]) * m[0] + (wh0[1] - r[4, 0]) * m[1] + (wh0[2] - r[5, 0]) * m[2]
         b = (wh1[0] - r[3, 1]) * m[0] + (wh1[1] - r[4, 1]) * m[1] + (wh1[2] - r[5, 1]) * m[2]
-    dq = np.zeros((6, 2))  # ΔM g on (V, Ω): column 0 without, column 1 per unit motor torque
     if width >= 0:
         last = 3 * (n + 1)
         kmax = min(n, width)
@@ -516,7 +522,7 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width):
         torque = 0.0 if el == 0.0 else drive_torque(prm, iprm, w0, b)
     out = np.empty(20)
     out[0] = torque
-    dw = np.empty(3)
+    dw = CW[:3, 5]
     for i in range(3):
         dw[i] = dq[3 + i, 0] + torque * dq[3 + i, 1]
     dwm = dw[0] * m[0] + dw[1] * m[1] + dw[2] * m[2]
@@ -529,7 +535,7 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width):
             wh = wh0[i] + torque * wh1[i]
         out[1 + i], out[4 + i], out[7 + i], out[13 + i] = wh, om, vc, m[i]
     if width >= 0:  # the beads: U_k += ΔM g
-        g = np.empty(6)
+        g = CW[:, 4]
         for i in range(6):
             g[i] = gb[i, 0] + torque * gb[i, 1]
         _cell_bead_correction(DM, DR, V, g, n, width)
@@ -574,7 +580,7 @@ def _rhs_kernel(GENERAL):
         h = prm[P_H]
         gpar, gperp, grot = prm[P_GPAR], prm[P_GPERP], prm[P_GROT]
         omega_frame = prm[P_OMEGA]
-        T, E1, E2, LEN, S, GT, GTH, DR, V, A1, DM = ws
+        T, E1, E2, LEN, S, GT, GTH, DR, V, A1, CW, DM = ws
         el = prm[P_ELASTIC]
         if el == 0.0:  # mobility only (thermal increments): no elastic forces to compute
             frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1)
@@ -625,7 +631,7 @@ def _rhs_kernel(GENERAL):
         width = -1 if hydro == HYDRO_LOCAL else (NEAR_BEADS if hydro == HYDRO_BANDED else n)
         cm = V[0]  # (unused placeholder of the same type)
         if GENERAL and cell:  # bead 0 and the hook frame move with the cell body (and it applies ΔM)
-            cm = cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width)
+            cm = cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW)
             energy += cm[18]
             V[0, 0], V[0, 1], V[0, 2] = cm[10], cm[11], cm[12]
         elif width >= 0:

@@ -495,4 +495,5 @@ class _Workspace(NamedTuple):
     DR: np.ndarray
     V: np.ndarray
     A1: np.ndarray
+    CW: np.ndarray
     DM: np.ndarray

@@ -422,7 +422,10 @@ class BdfStepper:
 
     @property
     def stats(self) -> dict:
-        """Counters since construction: steps, right-hand sides, Jacobians, factorizations."""
+        """Counters since construction: steps, right-hand sides, Jacobians, factorizations,
+        failures, and the Jacobians by cause of renewal (at a start, after the kept one's
+        Newton iteration diverged or ran out of iterations, ahead of the iteration) with the
+        steps the renewed ones had been kept in all (``jacobian_age_steps``)."""
         i = self._ist
         return {"steps": int(i[I_STEPS]), "rhs": int(i[I_RHS]), "jacobians": int(i[I_JAC]),
                 "factorizations": int(i[I_LU]), "convergence_failures": int(i[I_NFAIL]),

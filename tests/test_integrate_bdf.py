@@ -74,7 +74,7 @@ def _solve_linear(rtol, t_out=(0.5, 1.0, 2.0)):
     n = N_LIN
     y0 = np.cos(np.arange(n))  # φ(0)
     D = np.zeros((B.MAX_ORDER + 3, n))
-    st, ist = np.zeros(6), np.zeros(13, np.int64)
+    st, ist = np.zeros(6), np.zeros(B.N_ISTATE, np.int64)
     st[B.S_RTOL], st[B.S_ATOL] = rtol, rtol
     ka = (LAM, OMEGA)
     kl = ku = 1
@@ -126,7 +126,7 @@ def test_first_step_is_the_closed_form_ndf1_step():
 
     start, advance = _same_code_on(fun, jac)
     D = np.zeros((B.MAX_ORDER + 3, 1))
-    st, ist = np.zeros(6), np.zeros(13, np.int64)
+    st, ist = np.zeros(6), np.zeros(B.N_ISTATE, np.int64)
     st[B.S_RTOL], st[B.S_ATOL] = 1e-6, 1e-8
     assert start(0.0, np.ones(1), D, st, ist, None, None, np.zeros(1), np.zeros(1))
     h = st[B.S_H]

@@ -45,6 +45,20 @@ S_T, S_H, S_RTOL, S_ATOL, S_C, S_RATE = range(6)
 # int state ist[...]
 I_ORDER, I_EQUAL, I_LU_OK, I_JAC_CUR, I_PIVOTED, I_STEPS, I_RHS, I_JAC, I_LU, I_STARTED, \
     I_JAC_OK, I_NFAIL, I_EFAIL = range(13)
+#: why the Jacobian was renewed (counts): at a (re)start; after a Newton failure with the kept
+#: one, by the iteration's diverging or its running out of iterations; the steps the renewed
+#: Jacobians had been kept in all (their age); the step of the last renewal
+I_JAC_START, I_JAC_DIVERGED, I_JAC_MAXITER, I_JAC_AGE, I_JAC_STEP = range(13, 18)
+#: steps left in which the Jacobian is renewed ahead of the Newton iteration; how many were
+I_AHEAD_LEFT, I_JAC_AHEAD = 18, 19
+N_ISTATE = 20
+#: Jacobian policy alternatives, off as shipped (benchmarks/bench_jacobian_refresh.py measures
+#: them; neither wins in the buckled run, whose kept Jacobian fails within ~1–2 steps):
+#: up to STALE_MAXITER Newton iterations with a kept Jacobian while the rate stays below
+#: STALE_RATE; after a failure with a kept Jacobian, renew it ahead of the iteration in the
+#: next PROBE steps
+STALE_MAXITER, STALE_RATE, PROBE = NEWTON_MAXITER, 0.5, 0
+
 # drive kinds: the motor's drive value M(t) (flagellum.motor.Motor.__call__)
 DRIVE_CONST, DRIVE_RAMP, DRIVE_SCHEDULE = 0, 1, 2
 
@@ -118,6 +132,7 @@ def _jacobian(t, y, f, ka, drive, kl, ku, jab, yw, fw, color, lo, hi, ist):
     K.colored_jacobian(y, f, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl, ku,
                        jab, 1.0, yw, fw, color, lo, hi)
     ist[I_JAC] += 1
+    ist[I_JAC_STEP] = ist[I_STEPS]
     ist[I_RHS] += 1 + color.max() + 1
     ist[I_JAC_CUR] = 1
     ist[I_JAC_OK] = 1
@@ -219,6 +234,11 @@ def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, back
             converged = False
             while not converged:
                 if ist[I_JAC_OK] == 0:  # the first step after a (re)start
+                    ist[I_JAC_START] += 1
+                    _jacobian(t_new, ypred, fw, ka, drive, kl, ku, jab, yw, f, color, lo, hi, ist)
+                elif ist[I_JAC_CUR] == 0 and ist[I_AHEAD_LEFT] > 0:
+                    ist[I_AHEAD_LEFT] -= 1
+                    ist[I_JAC_AHEAD] += 1
                     _jacobian(t_new, ypred, fw, ka, drive, kl, ku, jab, yw, f, color, lo, hi, ist)
                 if ist[I_LU_OK] == 0 or c != st[S_C]:
                     if not _factor(c, jab, lu, kl, ku, ipiv, backup, ist):
@@ -234,7 +254,8 @@ def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, back
                 d[:] = 0.0
                 old = 0.0
                 crate = st[S_RATE]
-                for k in range(NEWTON_MAXITER):
+                diverged = False
+                for k in range(max(NEWTON_MAXITER, STALE_MAXITER)):
                     n_iter = k + 1
                     ist[I_RHS] += 1
                     if not _fun(t_new, ynew, f, ka, drive):
@@ -252,11 +273,17 @@ def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, back
                         converged = True
                         break
                     if k > 0 and dn > RDIV * old:
+                        diverged = True
+                        break
+                    if n_iter >= NEWTON_MAXITER and (ist[I_JAC_CUR] == 1 or crate > STALE_RATE):
                         break
                     old = dn
                 st[S_RATE] = crate
                 if converged or ist[I_JAC_CUR] == 1:
                     break
+                ist[I_JAC_DIVERGED if diverged else I_JAC_MAXITER] += 1
+                ist[I_AHEAD_LEFT] = PROBE
+                ist[I_JAC_AGE] += ist[I_STEPS] - ist[I_JAC_STEP]
                 _jacobian(t_new, ypred, fw, ka, drive, kl, ku, jab, yw, f, color, lo, hi, ist)
             if not converged:
                 ist[I_NFAIL] += 1
@@ -264,7 +291,7 @@ def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, back
                 _change_d(D, order, 0.5)
                 ist[I_EQUAL] = 0
                 continue
-            safety = 0.9 * (2 * NEWTON_MAXITER + 1) / (2 * NEWTON_MAXITER + n_iter)
+            safety = 0.9 * (2 * NEWTON_MAXITER + 1) / (2 * NEWTON_MAXITER + min(n_iter, NEWTON_MAXITER))
             for j in range(n):
                 scale[j] = atol + rtol * abs(ynew[j])
                 dy[j] = ERROR_CONST[order] * d[j]
@@ -367,7 +394,7 @@ class BdfStepper:
         n = len(y0)
         self._D = np.zeros((MAX_ORDER + 3, n))
         self._st = np.zeros(6)
-        self._ist = np.zeros(13, np.int64)
+        self._ist = np.zeros(N_ISTATE, np.int64)
         self._st[S_RTOL], self._st[S_ATOL] = self.rtol, self.atol
         ldab = 2 * self._kl + self._ku + 1
         self._jab = np.zeros((n, ldab))
@@ -395,11 +422,17 @@ class BdfStepper:
 
     @property
     def stats(self) -> dict:
-        """Counters since construction: steps, right-hand sides, Jacobians, factorizations."""
+        """Counters since construction: steps, right-hand sides, Jacobians, factorizations,
+        failures, and the Jacobians by cause of renewal (at a start, after the kept one's
+        Newton iteration diverged or ran out of iterations, ahead of the iteration) with the
+        steps the renewed ones had been kept in all (``jacobian_age_steps``)."""
         i = self._ist
         return {"steps": int(i[I_STEPS]), "rhs": int(i[I_RHS]), "jacobians": int(i[I_JAC]),
                 "factorizations": int(i[I_LU]), "convergence_failures": int(i[I_NFAIL]),
-                "error_test_failures": int(i[I_EFAIL])}
+                "error_test_failures": int(i[I_EFAIL]), "jacobians_at_start": int(i[I_JAC_START]),
+                "jacobians_after_divergence": int(i[I_JAC_DIVERGED]),
+                "jacobians_after_max_iterations": int(i[I_JAC_MAXITER]),
+                "jacobian_age_steps": int(i[I_JAC_AGE]), "jacobians_ahead": int(i[I_JAC_AHEAD])}
 
     def _drive_for(self, t: float) -> tuple:
         if t > self._drive_end:  # reversal times drawn well past the next output

@@ -328,3 +328,17 @@ def test_lattice_pinning_of_a_wall_is_negligible_at_the_default_width():
     de = -0.1 * PM.spinodal_drive(0.25)
     c = -PM.front_speed(0.25, 0.05, zeta, de)
     assert abs(speed(0.25, 0.05, de, 20 * h / c)) < 0.01 * c
+
+
+def test_cli_barrier_per_pair(cli):
+    """``--polymorph-barrier`` takes one number or one per neighbouring pair; a wrong count
+    or no number is a one-line error naming the flag."""
+    code, text, err = cli("simulate", "--length", 4, "--torque", 0, "--time", 0.004,
+                          "--polymorphic", "normal,semicoiled,curly1", "--polymorph-barrier",
+                          "0.25,0.1", "--json")
+    assert code == 0, err
+    assert set(json.loads(text)["form_fractions"]) == {"normal", "semicoiled", "curly1"}
+    for bad in ("0.25,0.1,0.1", ","):
+        code, _, err = cli("simulate", "--length", 4, "--time", 0.004, "--polymorphic",
+                           "normal,semicoiled,curly1", "--polymorph-barrier", bad)
+        assert_one_line_error(code, err, "polymorph_barrier")

@@ -14,7 +14,8 @@ Energy besides the rod's (per length v [pN], continuum D [pN·µm²]), discretiz
 
 v between forms m, m+1 (x = φ − m) the quartic of the Nagumo (Zeldovich) equation,
 v = ε_m + k [x⁴/4 − (1 + a) x³/3 + a x²/2], v' = k x (x − 1)(x − a): minima at both forms,
-a = 1/2 + 6 Δε/k; outside the first and last form the parabola of its well. An overdamped
+a = 1/2 + 6 Δε/k (k = 64 × the pair's barrier, one per neighbouring pair:
+:func:`pair_landscape`); outside the first and last form the parabola of its well. An overdamped
 dynamics, as for the order parameter of Srigiriraju & Powers, Phys. Rev. E 73, 011902
 (2006) (time-dependent Ginzburg–Landau), ::
 

@@ -43,7 +43,7 @@ def test_events_measure_the_wall_speed_of_the_nagumo_front(start, fronts):
         phi = 1.0 / (1.0 + np.exp((x - 25.0) / w)) - 1.0 / (1.0 + np.exp((x - 15.0) / w))
     eps = np.array([0.0, -0.3])
     sub = PM.stable_substep(h, k, D, zeta, np.zeros(2), np.zeros(2), 0.0, 0.0)
-    args = (h, eps, k, D, zeta, 0.0, 0.0, np.zeros((n, 3)), np.zeros(2), np.zeros(2), False,
+    args = (h, eps, np.full(1, k), D, zeta, 0.0, 0.0, np.zeros((n, 3)), np.zeros(2), np.zeros(2), False,
             0.0, np.zeros((1, 1)))
     PM.advance(phi, 0.05, math.ceil(0.05 / sub), *args)  # settle the profile
     phi0 = phi.copy()

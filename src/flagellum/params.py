@@ -285,7 +285,8 @@ class Polymorphism:
     Landscape (energy per length [pN]) between neighbouring forms m, m+1, x = φ − m:
     v = ε_m + k q(x; a_m), q = x⁴/4 − (1 + a) x³/3 + a x²/2 with k = 64·``barrier`` and
     a_m = 1/2 + 6 (ε_{m+1} − ε_m)/k, so that v(m) = ε_m, both forms are minima (v' = 0) and,
-    for equal ε, the barrier between them is ``barrier`` high. ``energies`` ε [pN] (default 0
+    for equal ε, the barrier between them is ``barrier`` high; ``barrier`` is one number for
+    every pair, or one per neighbouring pair (len(forms) − 1 numbers, k_m = 64·barrier_m). ``energies`` ε [pN] (default 0
     for every form). Domain walls cost D/2 (∂φ/∂s)² per length, D = ``wall_stiffness``
     [pN·µm²]; ``friction`` ζ [pN·s] sets the overdamped dynamics ζ ∂φ/∂t = −δE/δφ (+ noise of
     a thermal run). ``initial``: the starting form of every joint (default: the first
@@ -309,7 +310,14 @@ class Polymorphism:
             raise ParameterError("polymorphic", ",".join(map(str, forms)), "distinct forms among "
                                  + ", ".join(POLYMORPHIC_FORMS))
         _set(self, "forms", forms)
-        _set(self, "barrier", positive("polymorph_barrier", self.barrier, 1e4))
+        if isinstance(self.barrier, (tuple, list)):
+            if len(self.barrier) != max(len(forms) - 1, 1):
+                raise ParameterError("polymorph_barrier", ",".join(map(str, self.barrier)),
+                                     f"one number, or {max(len(forms) - 1, 1)} (one per "
+                                     "neighbouring pair of forms)")
+            _set(self, "barrier", tuple(positive("polymorph_barrier", b, 1e4) for b in self.barrier))
+        else:
+            _set(self, "barrier", positive("polymorph_barrier", self.barrier, 1e4))
         _set(self, "wall_stiffness", positive("polymorph_wall_stiffness", self.wall_stiffness, 1e6))
         _set(self, "friction", positive("polymorph_friction", self.friction, 1e6))
         if self.energies is None:
@@ -318,15 +326,25 @@ class Polymorphism:
         if len(e) != len(forms):
             raise ParameterError("polymorph_energies", ",".join(map(str, e)),
                                  f"{len(forms)} numbers (one per form)")
-        k = 64 * self.barrier
-        if any(abs(b - a) >= k / 12 for a, b in zip(e, e[1:])):
+        kk = self.pair_stiffness()
+        if any(abs(b - a) >= k / 12 for a, b, k in zip(e, e[1:], kk)):
             raise ParameterError("polymorph_energies", ",".join(map(str, e)), "neighbouring "
-                                 f"differences below 16/3 × barrier = {k / 12:g} pN (both forms minima)")
+                                 f"differences below 16/3 × barrier = {min(kk) / 12:g} pN "
+                                 "(both forms minima)")
         _set(self, "energies", e)
         if self.initial is None:
             _set(self, "initial", forms[0])
         if not isinstance(self.initial, str):
             raise ParameterError("polymorph_initial", self.initial, "a form or 'form:count,…'")
+
+    def pair_barriers(self) -> tuple:
+        """The barrier [pN] of each neighbouring pair of forms (at least one entry)."""
+        b = self.barrier
+        return tuple(b) if isinstance(b, tuple) else (b,) * max(len(self.forms) - 1, 1)
+
+    def pair_stiffness(self) -> tuple:
+        """The well stiffness k_m = 64·barrier_m [pN] of each neighbouring pair."""
+        return tuple(64.0 * b for b in self.pair_barriers())
 
     def initial_states(self, n: int) -> "list[int]":
         """The starting form index of each of the n joints."""

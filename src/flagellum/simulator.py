@@ -269,14 +269,15 @@ class Simulator:
 
     def _phi_constants(self):
         pm, f = self.polymorphism, self.params.filament
-        k = 64.0 * pm.barrier
+        k = np.array(pm.pair_stiffness())
         return (self.model.h, np.array(pm.energies, float), k, pm.wall_stiffness, pm.friction,
                 f.bend_rigidity, f.twist_rigidity)
 
     @property
     def phi_relaxation_time(self) -> float:
-        """ζ/k [s]: the relaxation time of a well (the longest chunk between φ updates)."""
-        return self.polymorphism.friction / (64.0 * self.polymorphism.barrier)
+        """ζ/k [s]: the relaxation time of a well (the longest chunk between φ updates; the
+        slowest pair's, with a barrier per pair)."""
+        return self.polymorphism.friction / min(self.polymorphism.pair_stiffness())
 
     def _transform(self, y: np.ndarray, dt: float) -> bool:
         """Advance φ by dt at the strains of y; True if the intrinsic shape changed."""

@@ -388,8 +388,9 @@ def polymorph_options(func):
         click.option("--polymorph-energies", type=str, default=None,
                      help="well energy of each form [pN per µm of filament], comma-separated "
                           "(default all 0)"),
-        click.option("--polymorph-barrier", type=float, default=None,
-                     help="barrier between neighbouring forms of equal energy [pN] (default 0.25)"),
+        click.option("--polymorph-barrier", type=str, default=None,
+                     help="barrier between neighbouring forms of equal energy [pN]: one number, "
+                          "or one per neighbouring pair, comma-separated (default 0.25)"),
         click.option("--polymorph-wall-stiffness", type=float, default=None,
                      help="domain-wall stiffness D [pN·µm²] (default 0.5)"),
         click.option("--polymorph-friction", type=float, default=None,
@@ -416,4 +417,9 @@ def polymorph_from_cli(kwargs: dict):
     forms = tuple(f.strip() for f in forms.split(","))
     if vals["energies"] is not None:
         vals["energies"] = _floats("polymorph_energies", vals["energies"])
+    if vals["barrier"] is not None:
+        b = _floats("polymorph_barrier", vals["barrier"])
+        if not b:
+            raise ParameterError("polymorph_barrier", vals["barrier"], "comma-separated numbers")
+        vals["barrier"] = b[0] if len(b) == 1 else b
     return Polymorphism(forms=forms, **{k: v for k, v in vals.items() if v is not None})

@@ -11,12 +11,11 @@ d (and over the phase of the swimming at which the motor reverses: the body has 
 Brownian motion, so this is what spreads the angles) gives the tumble-angle distribution,
 compared with the measured mean of Berg & Brown (1972).
 
-The landscape (:data:`LANDSCAPE`) is not the package default: with the default barrier and
-wall stiffness the reversed torque tilts the order parameter near the hook but does not
-transform the filament (docs/polymorphism.md). With a low barrier and a soft wall a
-semicoiled domain nucleates at the hook under the reversed motor and grows along the
-filament, and a normal domain does the same back at forward torque. These are not fitted to
-a measurement.
+The landscape (:data:`LANDSCAPE`) is not the package default: a barrier of 0.1 pN and a soft
+wall, chosen (not fitted to a measurement) before the defaults were fitted to Hotani's
+torque thresholds. With it a semicoiled domain nucleates at the hook under the reversed
+motor and grows along the filament, and a normal domain does the same back at forward
+torque; the fitted defaults (barrier 0.25 pN) do the same on this cell (docs/polymorphism.md).
 """
 
 from __future__ import annotations

@@ -14,7 +14,8 @@ Energy besides the rod's (per length v [pN], continuum D [pN·µm²]), discretiz
 
 v between forms m, m+1 (x = φ − m) the quartic of the Nagumo (Zeldovich) equation,
 v = ε_m + k [x⁴/4 − (1 + a) x³/3 + a x²/2], v' = k x (x − 1)(x − a): minima at both forms,
-a = 1/2 + 6 Δε/k; outside the first and last form the parabola of its well. An overdamped
+a = 1/2 + 6 Δε/k (k = 64 × the pair's barrier, one per neighbouring pair:
+:func:`pair_landscape`); outside the first and last form the parabola of its well. An overdamped
 dynamics, as for the order parameter of Srigiriraju & Powers, Phys. Rev. E 73, 011902
 (2006) (time-dependent Ginzburg–Landau), ::
 
@@ -42,22 +43,34 @@ from .._jit import FASTMATH
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def landscape(phi, eps, k):
-    """(v, dv/dφ) of the landscape with well energies ``eps`` (forms 0 … M−1) and well
-    stiffness k (:mod:`module docstring <flagellum.rod.polymorph>`)."""
+def pair_landscape(phi, eps, kk):
+    """(v, dv/dφ) of the landscape with well energies ``eps`` (forms 0 … M−1) and the well
+    stiffness kk[m] = 64 × barrier of each neighbouring pair (m, m+1) (at least one entry)
+    (:mod:`module docstring <flagellum.rod.polymorph>`); the end wells' parabolas take the
+    stiffness of their pair."""
     m_last = eps.shape[0] - 1
     if m_last == 0 or phi <= 0.0:  # the first well's parabola (one form: a single well)
+        k = kk[0]
         a = 0.5 + 6.0 * (eps[1] - eps[0]) / k if m_last > 0 else 0.5
         return eps[0] + 0.5 * k * a * phi * phi, k * a * phi
     if phi >= m_last:
+        k = kk[m_last - 1]
         a = 0.5 + 6.0 * (eps[m_last] - eps[m_last - 1]) / k
         d = phi - m_last
         return eps[m_last] + 0.5 * k * (1.0 - a) * d * d, k * (1.0 - a) * d
     m = int(math.floor(phi))
     x = phi - m
+    k = kk[m]
     a = 0.5 + 6.0 * (eps[m + 1] - eps[m]) / k
     v = eps[m] + k * (x ** 4 / 4.0 - (1.0 + a) * x ** 3 / 3.0 + a * x * x / 2.0)
     return v, k * x * (x - 1.0) * (x - a)
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def landscape(phi, eps, k):
+    """(v, dv/dφ) of the landscape with well energies ``eps`` and one well stiffness k for
+    every pair (:func:`pair_landscape`)."""
+    return pair_landscape(phi, eps, np.full(max(eps.shape[0] - 1, 1), k))
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
@@ -79,12 +92,13 @@ def form_strains(phi, kap, tau):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def phi_rate(phi, h, eps, k, D, zeta, A, C, strains, kap, tau, coupled, out):
+def phi_rate(phi, h, eps, kk, D, zeta, A, C, strains, kap, tau, coupled, out):
     """out_j = −(1/ζh) ∂E/∂φ_j, the deterministic rate of every joint (``coupled``: with the
-    rod's energy at its frozen ``strains`` (n, 3))."""
+    rod's energy at its frozen ``strains`` (n, 3)); ``kk`` the pairs' well stiffnesses
+    (:func:`pair_landscape`)."""
     n = phi.shape[0]
     for j in range(n):
-        _, dv = landscape(phi[j], eps, k)
+        _, dv = pair_landscape(phi[j], eps, kk)
         g = h * dv
         if j > 0:
             g += D / h * (phi[j] - phi[j - 1])
@@ -97,15 +111,15 @@ def phi_rate(phi, h, eps, k, D, zeta, A, C, strains, kap, tau, coupled, out):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def advance(phi, dt, n_sub, h, eps, k, D, zeta, A, C, strains, kap, tau, coupled, kT, normals):
-    """Advance φ by ``dt`` in ``n_sub`` Euler(–Maruyama) steps; ``normals`` (n_sub, n) unit
-    Gaussians for kT > 0."""
+def advance(phi, dt, n_sub, h, eps, kk, D, zeta, A, C, strains, kap, tau, coupled, kT, normals):
+    """Advance φ by ``dt`` in ``n_sub`` Euler(–Maruyama) steps; ``kk`` the pairs' well
+    stiffnesses (:func:`pair_landscape`); ``normals`` (n_sub, n) unit Gaussians for kT > 0."""
     n = phi.shape[0]
     rate = np.empty(n)
     s = dt / n_sub
     amp = math.sqrt(2.0 * kT * s / (zeta * h)) if kT > 0.0 else 0.0
     for i in range(n_sub):
-        phi_rate(phi, h, eps, k, D, zeta, A, C, strains, kap, tau, coupled, rate)
+        phi_rate(phi, h, eps, kk, D, zeta, A, C, strains, kap, tau, coupled, rate)
         for j in range(n):
             phi[j] += s * rate[j]
             if amp > 0.0:
@@ -121,7 +135,9 @@ def intrinsic(phi, kap, tau, out_k, out_t):
 
 def stable_substep(h: float, k: float, D: float, zeta: float, kap, tau, A: float, C: float) -> float:
     """Largest stable explicit step [s]: ζ/(stiffest curvature of the energy in φ), the
-    landscape (≤ k), the walls (4D/h²) and the rod (A κ'² + C τ'²), with a margin of 2."""
+    landscape (≤ k; the largest of the pairs' stiffnesses if k is a sequence), the walls
+    (4D/h²) and the rod (A κ'² + C τ'²), with a margin of 2."""
+    k = float(np.max(k))
     dk = np.max(np.abs(np.diff(kap))) if len(kap) > 1 else 0.0
     dt = np.max(np.abs(np.diff(tau))) if len(tau) > 1 else 0.0
     stiff = 2.0 * k + 4.0 * D / h ** 2 + A * dk ** 2 + C * dt ** 2

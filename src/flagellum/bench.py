@@ -20,6 +20,10 @@
   CVODE and the Numba BDF (:mod:`flagellum.integrate.bdf`) over rtol and the fixed-step BDF2
   over Δt (buckled M = 1.6 and M = 1 from rest by default, any of :data:`REGIMES`);
   :func:`plot_work_precision` draws the diagram (``flagellum bench --plot``).
+* the peer (``flagellum bench --peer``): PyElastica (:mod:`flagellum.peer`, in its own
+  environment) on each deterministic regime, ``peer_ratio`` = its wall seconds per simulated
+  second over flagellum's (:func:`peer_columns`), and over Δt in the work–precision runs
+  (:func:`peer_precision`).
 """
 
 from __future__ import annotations

@@ -10,7 +10,12 @@ run (N = 50, M = 1 pN·µm from rest) of each solver named, then a second run of
 * ``cold_with_warmup``: empty cache, warm-up on: a first CVODE run (its stepper starts
   ``python -m flagellum.warmup bdf implicit`` in the background); once that has finished, a
   new process runs the BDF and the implicit scheme;
-* ``cached``: the cache filled: a new process runs each solver (the loads from the cache).
+* ``cached``: the cache filled: a new process runs each solver (the loads from the cache);
+* ``default``: what a user meets: an empty cache and the default method (``simulate`` with
+  no method: the Numba BDF), the first process's import + first run against a later
+  process's, with every Numba compile event timed per function (self time: nested compiles
+  subtracted) in the first; ``--src DIR`` runs another copy of the package's source (its
+  ``src`` folder) the same way, alternately with this one, for a paired comparison.
 
 Run: OPENBLAS_NUM_THREADS=1 python benchmarks/bench_compile.py
 Writes benchmarks/bench_compile.json.
@@ -44,10 +49,43 @@ print(json.dumps(out))
 """
 
 
-def child(cache: str, methods, warmup: bool) -> dict:
-    env = dict(os.environ, NUMBA_CACHE_DIR=cache, FLAGELLUM_WARMUP="1" if warmup else "0")
+# the default run with Numba's compile events timed per function (self time)
+EVENTS = r"""
+import json, sys, time
+from numba.core import event as ev
+stack, self_time = [], {}
+class Timer(ev.Listener):
+    def on_start(self, event):
+        stack.append([time.perf_counter(), 0.0])
+    def on_end(self, event):
+        t0, inner = stack.pop()
+        dt = time.perf_counter() - t0
+        if stack:
+            stack[-1][1] += dt
+        d = event.data["dispatcher"]
+        name = d.py_func.__module__.replace("flagellum.", "") + "." + d.py_func.__qualname__
+        self_time[name] = self_time.get(name, 0.0) + dt - inner
+ev.register("numba:compile", Timer())
+t0 = time.perf_counter()
+from flagellum import Motor, Params, Simulator
+out = {"import": time.perf_counter() - t0}
+for k in ("first", "second"):
     t = time.perf_counter()
-    res = subprocess.run([sys.executable, "-c", CHILD, *methods], env=env, capture_output=True,
+    sim = Simulator(Params(), Motor(1.0))
+    sim.run(0.01, save_every=1e-3, progress=False)
+    out[k] = time.perf_counter() - t
+out["method"] = sim.solver.method
+out["compile_self_seconds"] = dict(sorted(self_time.items(), key=lambda kv: -kv[1]))
+print(json.dumps(out))
+"""
+
+
+def child(cache: str, methods, warmup: bool, code: str = CHILD, src: str | None = None) -> dict:
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache, FLAGELLUM_WARMUP="1" if warmup else "0")
+    if src:
+        env["PYTHONPATH"] = src
+    t = time.perf_counter()
+    res = subprocess.run([sys.executable, "-c", code, *methods], env=env, capture_output=True,
                          text=True, check=True)
     out = json.loads(res.stdout.strip().splitlines()[-1])
     out["process"] = time.perf_counter() - t
@@ -69,8 +107,42 @@ def load_average() -> float:
     return os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
 
 
+def default_case(src: str | None = None) -> dict:
+    """The ``default`` case (module docstring) on the source ``src`` (None: the installed)."""
+    with tempfile.TemporaryDirectory() as cache:
+        first = child(cache, (), warmup=False, code=EVENTS, src=src)
+        later = child(cache, (), warmup=False, code=EVENTS, src=src)
+    return {"first_process": first, "later_process": later,
+            "ratio_first_run": first["first"] / later["first"],
+            "ratio_import_and_first_run": (first["import"] + first["first"])
+            / (later["import"] + later["first"])}
+
+
 def main() -> None:
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--default-only", action="store_true", help="only the default case")
+    ap.add_argument("--src", default=None, help="another source tree to pair with (its src/)")
+    ap.add_argument("--rounds", type=int, default=1)
+    ap.add_argument("--out", default=str(HERE / "bench_compile.json"))
+    args = ap.parse_args()
     out = {"load_average": load_average(), "run": "N = 50, M = 1, 0.01 s from rest"}
+    rounds = []
+    for _ in range(args.rounds):  # alternately: this code, the other (paired)
+        r = {"this": default_case()}
+        print("default", {k: v for k, v in r["this"].items() if k.startswith("ratio")},
+              r["this"]["first_process"]["first"], flush=True)
+        if args.src:
+            r["other"] = default_case(args.src)
+            print("other", {k: v for k, v in r["other"].items() if k.startswith("ratio")},
+                  r["other"]["first_process"]["first"], flush=True)
+        rounds.append(r)
+    out["default"] = rounds
+    if args.default_only:
+        out["load_average_end"] = load_average()
+        Path(args.out).write_text(json.dumps(out, indent=1))
+        return
     with tempfile.TemporaryDirectory() as a, tempfile.TemporaryDirectory() as b:
         out["cold"] = child(a, ("cvode", "bdf", "implicit"), warmup=False)
         print("cold", out["cold"], flush=True)
@@ -83,7 +155,7 @@ def main() -> None:
         out["cached"] = {m: child(a, (m,), warmup=False) for m in ("cvode", "bdf", "implicit")}
         print("cached", out["cached"], flush=True)
     out["load_average_end"] = load_average()
-    (HERE / "bench_compile.json").write_text(json.dumps(out, indent=1))
+    Path(args.out).write_text(json.dumps(out, indent=1))
 
 
 if __name__ == "__main__":

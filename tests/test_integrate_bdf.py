@@ -30,7 +30,7 @@ OMEGA = np.linspace(1.0, 3.0, N_LIN)
 
 
 @njit
-def _lin_fun(t, y, out, ka, drive):
+def _lin_fun(t, y, out, ka, drive, general=None):
     lam, om = ka
     n = y.shape[0]
     for i in range(n):
@@ -42,7 +42,7 @@ def _lin_fun(t, y, out, ka, drive):
 
 
 @njit
-def _lin_jacobian(t, y, f, ka, drive, kl, ku, jab, yw, fw, color, lo, hi, ist):
+def _lin_jacobian(t, y, f, ka, drive, kl, ku, jab, yw, fw, color, lo, hi, ist, general=None):
     lam, om = ka
     kv = kl + ku
     jab[:, :] = 0.0
@@ -78,7 +78,7 @@ def _solve_linear(rtol, t_out=(0.5, 1.0, 2.0)):
     st[B.S_RTOL], st[B.S_ATOL] = rtol, rtol
     ka = (LAM, OMEGA)
     kl = ku = 1
-    assert START(0.0, y0, D, st, ist, ka, None, np.zeros(n), np.zeros(n))
+    assert START(0.0, y0, D, st, ist, ka, None, np.zeros(n), np.zeros(n), None)
     ldab = 2 * kl + ku + 1
     args = (np.zeros((n, ldab)), np.zeros((n, ldab)), np.zeros(n, np.int64),
             np.zeros((n, kl + ku + 1)), np.zeros(n, np.int64), np.zeros(n, np.int64),
@@ -86,7 +86,7 @@ def _solve_linear(rtol, t_out=(0.5, 1.0, 2.0)):
     errs = []
     for t in t_out:
         y = np.zeros(n)
-        assert ADVANCE(t, y, D, st, ist, ka, None, kl, ku, *args, 100000) == 0
+        assert ADVANCE(t, y, D, st, ist, ka, None, kl, ku, *args, 100000, None) == 0
         exact = np.cos(OMEGA * t + np.arange(n))
         errs.append(np.abs(y - exact).max())
     return max(errs), ist
@@ -112,12 +112,12 @@ def test_first_step_is_the_closed_form_ndf1_step():
     lam = 50.0
 
     @njit
-    def fun(t, y, out, ka, drive):
+    def fun(t, y, out, ka, drive, general):
         out[0] = -lam * y[0]
         return True
 
     @njit
-    def jac(t, y, f, ka, drive, kl, ku, jab, yw, fw, color, lo, hi, ist):
+    def jac(t, y, f, ka, drive, kl, ku, jab, yw, fw, color, lo, hi, ist, general):
         jab[0, kl + ku] = -lam
         ist[B.I_JAC_CUR] = 1
         ist[B.I_JAC_OK] = 1
@@ -128,18 +128,19 @@ def test_first_step_is_the_closed_form_ndf1_step():
     D = np.zeros((B.MAX_ORDER + 3, 1))
     st, ist = np.zeros(6), np.zeros(B.N_ISTATE, np.int64)
     st[B.S_RTOL], st[B.S_ATOL] = 1e-6, 1e-8
-    assert start(0.0, np.ones(1), D, st, ist, None, None, np.zeros(1), np.zeros(1))
+    assert start(0.0, np.ones(1), D, st, ist, None, None, np.zeros(1), np.zeros(1), None)
     h = st[B.S_H]
     y = np.zeros(1)
     z = np.zeros((1, 1))
     i0 = np.zeros(1, np.int64)
     assert advance(1e-300, y, D, st, ist, None, None, 0, 0, z, z.copy(), i0, z.copy(),
-                   i0, i0, i0, 10) == 0
+                   i0, i0, i0, 10, None) == 0
     assert ist[B.I_STEPS] == 1 and st[B.S_T] == pytest.approx(h)
     k1 = -0.1850
     assert D[0, 0] == pytest.approx((1 - k1 * (1 - lam * h)) / (1 - k1 + lam * h), rel=1e-12)
     # and long after: the exact decay within the tolerance
-    advance(0.1, y, D, st, ist, None, None, 0, 0, z, z.copy(), i0, z.copy(), i0, i0, i0, 10000)
+    advance(0.1, y, D, st, ist, None, None, 0, 0, z, z.copy(), i0, z.copy(), i0, i0, i0, 10000,
+            None)
     assert y[0] == pytest.approx(math.exp(-lam * 0.1), abs=30 * 1e-6 * 1e-2 + 1e-8)
 
 

@@ -20,6 +20,10 @@
   CVODE and the Numba BDF (:mod:`flagellum.integrate.bdf`) over rtol and the fixed-step BDF2
   over Δt (buckled M = 1.6 and M = 1 from rest by default, any of :data:`REGIMES`);
   :func:`plot_work_precision` draws the diagram (``flagellum bench --plot``).
+* the peer (``flagellum bench --peer``): PyElastica (:mod:`flagellum.peer`, in its own
+  environment) on each deterministic regime, ``peer_ratio`` = its wall seconds per simulated
+  second over flagellum's (:func:`peer_columns`), and over Δt in the work–precision runs
+  (:func:`peer_precision`).
 """
 
 from __future__ import annotations
@@ -54,10 +58,11 @@ def steady_state(torque: float = 1.0, params: Params | None = None, warmup: floa
 
 def bench(window: float = 0.2, quick: bool = False, with_regimes: bool = True,
           with_work_precision: bool = False, solver: SolverOptions | None = None,
-          work_precision_names=None) -> dict:
+          work_precision_names=None, peer: bool = False) -> dict:
     """Run all benchmarks; returns the JSON-ready dict (``regimes``: :func:`regimes`, the
     deterministic ones with ``solver`` (default: ``SolverOptions()``); ``work_precision``:
-    :func:`work_precision` of ``work_precision_names``, only when asked for)."""
+    :func:`work_precision` of ``work_precision_names``, only when asked for; ``peer``:
+    PyElastica on the same regimes, :func:`peer_columns` and :func:`peer_precision`)."""
     out: dict = {"segments": 50, "torque": 1.0, "window": window, "load_average": load_average()}
     sim = steady_state(1.0)
     t0, start, frame0 = sim.t, sim.state(), sim.model.omega_frame
@@ -96,9 +101,9 @@ def bench(window: float = 0.2, quick: bool = False, with_regimes: bool = True,
     out["brownian"] = {"segments": 50, "dt": opts.dt, "wall_per_simulated_second": wall / w,
                        "steps": steps}
     if with_regimes:
-        out["regimes"] = regimes(quick, solver=solver)
+        out["regimes"] = regimes(quick, solver=solver, peer=peer)
     if with_work_precision:
-        out["work_precision"] = work_precision(quick, **(
+        out["work_precision"] = work_precision(quick, peer=peer, **(
             {"names": tuple(work_precision_names)} if work_precision_names else {}))
     out["load_average_end"] = load_average()
     return out
@@ -176,15 +181,20 @@ def warm_up() -> None:
                       solver=solver).run(2e-4, save_every=1e-4, progress=False)
 
 
-def regimes(quick: bool = False, names=None, solver: SolverOptions | None = None) -> dict:
+def regimes(quick: bool = False, names=None, solver: SolverOptions | None = None,
+            peer: bool = False) -> dict:
     """:data:`REGIMES` at ``solver`` (default: each run's default method,
     :func:`~flagellum.integrate.default_method`, at the default rtol; thermal: always the
     default fixed-step scheme), each against a CVODE rtol = 1e-10 reference over
     the same window (thermal: no reference, the noise differs per step size). ``reference_check``
     is the error of an rtol = 1e-9 run against the reference, an upper bound on the reference's
-    own error. ``quick``: windows a quarter as long, reference rtol 1e-8 checked by 1e-7."""
+    own error. ``quick``: windows a quarter as long, reference rtol 1e-8 checked by 1e-7.
+    ``peer``: PyElastica (:mod:`flagellum.peer`) on each deterministic regime right after
+    flagellum's runs of it (:func:`peer_columns`); without it, or without its environment,
+    ``peer_ratio`` is None and ``peer_reason`` says why."""
     ref_rtol, check_rtol = (1e-8, 1e-7) if quick else (REFERENCE_RTOL, CHECK_RTOL)
     warm_up()
+    peer_ok, peer_reason = peer_available() if peer else (False, "not run (flagellum bench --peer)")
     out = {}
     for name in names or REGIMES:
         torque, w, _, thermal = REGIMES[name]
@@ -200,17 +210,66 @@ def regimes(quick: bool = False, names=None, solver: SolverOptions | None = None
                        reference_wall_per_simulated_second=ref["wall_per_simulated_second"])
         else:
             row.update(error=None, dt=SolverOptions().dt)
-        row["peer_ratio"] = None  # benchmarks/bench_pyelastica.py measures the peer
+        if thermal:
+            row.update(peer_ratio=None, peer_reason="PyElastica is run without thermal noise here")
+        elif peer_ok:
+            row.update(peer_columns(name, row["wall_per_simulated_second"], quick))
+        else:
+            row.update(peer_ratio=None, peer_reason=peer_reason)
         out[name] = row
     return out
 
 
-def work_precision(quick: bool = False, names=("buckled_M1.6", "from_rest_M1")) -> dict:
+def peer_available() -> tuple[bool, str]:
+    """Whether PyElastica's environment is there (:func:`flagellum.peer.available`)."""
+    from . import peer
+
+    return peer.available()
+
+
+def _peer_window(quick: bool) -> float:
+    from . import peer
+
+    return peer.WINDOW / 4 if quick else peer.WINDOW
+
+
+def peer_columns(name: str, wall_per_simulated_second: float, quick: bool = False) -> dict:
+    """PyElastica on regime ``name`` at its tuned Δt (:mod:`flagellum.peer`) over a short
+    window (its cost per simulated second is the same in every state): its wall seconds per
+    simulated second, ``peer_ratio`` = that over flagellum's ``wall_per_simulated_second``,
+    and the errors of its time-averaged thrust and ω against a flagellum CVODE rtol 1e-10
+    run over the same short window (the two models differ: shearable, inertial rod)."""
+    from . import peer
+
+    torque, _, boundary, _ = REGIMES[name]
+    w = _peer_window(quick)
+    res = peer.run(peer.spec(Params(), torque, boundary), window=w)
+    p = res["tuned"]
+    if p is None:
+        return {"peer_ratio": None, "peer_reason": "PyElastica blew up at every Δt tried",
+                "peer": res}
+    ref = run_regime(name, _solver("cvode", REFERENCE_RTOL), w)
+    return {"peer_ratio": p["wall_per_simulated_second"] / wall_per_simulated_second,
+            "peer": {"method": "pyelastica", **p, **_peer_errors(p, ref)}}
+
+
+def _peer_errors(p: dict, ref: dict) -> dict:
+    """Relative errors of a peer run's thrust and ω against flagellum's ``ref``."""
+    e = {"thrust_error": abs(p["thrust"] - ref["thrust"]) / max(abs(ref["thrust"]), 1e-12),
+         "omega_error": abs(p["omega"] - ref["omega"]) / max(abs(ref["omega"]), 1e-12)}
+    return {**e, "error": max(e.values()), "reference_thrust": ref["thrust"],
+            "reference_omega": ref["omega"]}
+
+
+def work_precision(quick: bool = False, names=("buckled_M1.6", "from_rest_M1"),
+                   peer: bool = False) -> dict:
     """Error of the time averages against wall time: CVODE and the Numba BDF over
     :data:`RTOLS`, BDF2 over :data:`DTS`, against a CVODE rtol = 1e-10 run (quick: half
     windows, fewer points, 1e-9). The runs of one regime are interleaved by setting (CVODE,
-    BDF, CVODE, …), so that a change of the machine's load shifts both lines alike."""
+    BDF, CVODE, …), so that a change of the machine's load shifts both lines alike.
+    ``peer``: also PyElastica over Δt (:func:`peer_precision`), when its environment is there."""
     warm_up()
+    peer_ok = peer and peer_available()[0]
     out = {}
     for name in names:
         w = REGIMES[name][1] * (0.5 if quick else 1.0)
@@ -222,7 +281,36 @@ def work_precision(quick: bool = False, names=("buckled_M1.6", "from_rest_M1")) 
             r = run_regime(name, _solver(kind, value), w)
             rows.append({**r, "method": kind, METHODS[kind][1]: value, **average_errors(r, ref)})
         out[name] = {"window": w, "reference": ref, "runs": rows}
+        if peer and peer_ok:
+            out[name]["peer"] = peer_precision(name, quick)
     return out
+
+
+def peer_precision(name: str, quick: bool = False) -> dict:
+    """PyElastica over Δt on regime ``name``: its tuned Δt, half and a quarter of it, over
+    the short peer window, errors against flagellum's CVODE rtol 1e-10 run over the same
+    window (``error``: thrust and ω) and against its own finest Δt (``self_error``: the
+    convergence of its own answer)."""
+    from . import peer
+
+    torque, _, boundary, _ = REGIMES[name]
+    w = _peer_window(quick)
+    sp = peer.spec(Params(), torque, boundary)
+    tuned = peer.run(sp, window=min(w, 1e-3))["tuned"]
+    if tuned is None:
+        return {"window": w, "runs": [], "reason": "PyElastica blew up at every Δt tried"}
+    dts = [tuned["dt"] / k for k in ((1, 2) if quick else (1, 2, 4))]
+    runs = peer.run(sp, dts=dts, window=w, tune=False)["runs"]
+    ref = run_regime(name, _solver("cvode", REFERENCE_RTOL), w)
+    fine = runs[-1]
+    rows = []
+    for r in runs:
+        if not r["finite"]:
+            rows.append({**r, "method": "pyelastica", "failed": True})
+            continue
+        own = abs(r["thrust"] - fine["thrust"]) / abs(fine["thrust"])
+        rows.append({**r, "method": "pyelastica", **_peer_errors(r, ref), "self_error": own})
+    return {"window": w, "reference": ref, "runs": rows}
 
 
 def plot_work_precision(data: dict, path) -> None:
@@ -248,6 +336,16 @@ def plot_work_precision(data: dict, path) -> None:
             for r, xi, yi in zip(rows, x, y):
                 ax.annotate(f"{r[key]:.0e}", (xi, yi), fontsize=7, xytext=(3, 3),
                             textcoords="offset points")
+        prow = [r for r in d.get("peer", {}).get("runs", []) if "failed" not in r]
+        if prow:
+            x = [r["wall_per_simulated_second"] for r in prow]
+            ax.loglog(x, [max(r["error"], 1e-14) for r in prow], "D-", color="C3",
+                      label=f"PyElastica (Δt; {d['peer']['window']:g} s, vs flagellum)")
+            ax.loglog(x[:-1], [max(r["self_error"], 1e-14) for r in prow[:-1]], "D:", color="C3",
+                      mfc="none", label="PyElastica vs its own finest Δt")
+            for r, xi in zip(prow, x):
+                ax.annotate(f"{r['dt']:.2g}", (xi, max(r["error"], 1e-14)), fontsize=7,
+                            xytext=(3, 3), textcoords="offset points")
         ax.axhline(1e-3, color="0.6", lw=0.8, ls=":")
         ax.set_title(f"{name}, {d['window']:g} s from rest, N = 50")
         ax.set_xlabel("wall s per simulated s")

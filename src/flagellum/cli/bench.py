@@ -15,7 +15,8 @@ from ._output import emit_json, emit_table, fmt
               help="the same-work runs from rest (M = 1, 1.6, 3, 5, load sphere, free swimmer, "
                    "thermal) against a tight-tolerance reference")
 @click.option("--plot", "plot", type=click.Path(dir_okay=False), default=None,
-              help="also run the work–precision comparison (CVODE over rtol, BDF2 over Δt) "
+              help="also run the work–precision comparison (CVODE and the BDF over rtol, BDF2 "
+                   "over Δt, with --peer PyElastica over Δt) "
                    "and draw its diagram to this file (PNG)")
 @click.option("--plot-regime", "plot_regimes", multiple=True,
               help="regime of the work–precision diagram, a key of flagellum.bench.REGIMES "
@@ -25,8 +26,12 @@ from ._output import emit_json, emit_table, fmt
                    "method, bdf)")
 @click.option("--rtol", type=float, default=None,
               help="relative tolerance of the deterministic regimes (default: the solver's)")
+@click.option("--peer", is_flag=True,
+              help="also run PyElastica on each regime (and over Δt in --plot) from its own "
+                   "environment ($FLAGELLUM_PEER_ENV, default /tmp/pyel; made by "
+                   "benchmarks/bench_pyelastica.py --install): peer_ratio per regime")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
-def bench(quick, window, with_regimes, plot, plot_regimes, method, rtol, as_json):
+def bench(quick, window, with_regimes, plot, plot_regimes, method, rtol, peer, as_json):
     """Speed benchmarks: wall seconds per simulated second, scaling with N, Brownian, and the
     same-work regimes (wall per simulated s, steps, steps per revolution, error of the
     time averages)."""
@@ -40,7 +45,8 @@ def bench(quick, window, with_regimes, plot, plot_regimes, method, rtol, as_json
     # at least a few records of the shortest save interval (window/100) that a run resolves
     out = run_bench(check_range("window", window, 1e-3, 10.0, lo_open=False), quick=quick, with_regimes=with_regimes,
                     with_work_precision=plot is not None, work_precision_names=plot_regimes,
-                    solver=SolverOptions(method=method, **({} if rtol is None else {"rtol": rtol})))
+                    solver=SolverOptions(method=method, **({} if rtol is None else {"rtol": rtol})),
+                    peer=peer)
     if plot is not None:
         plot_work_precision(out["work_precision"], plot)
     if as_json:
@@ -53,7 +59,8 @@ def bench(quick, window, with_regimes, plot, plot_regimes, method, rtol, as_json
     for name, row in out.get("regimes", {}).items():
         click.echo(f"  {name}: " + ", ".join(
             f"{k} {fmt(row[k])}" for k in ("wall_per_simulated_second", "steps",
-                                           "steps_per_revolution", "error") if k in row))
+                                           "steps_per_revolution", "error", "peer_ratio")
+            if row.get(k) is not None))
     for name, d in out.get("work_precision", {}).items():
         for r in d["runs"]:
             setting = f"dt {fmt(r['dt'])}" if "dt" in r else f"rtol {fmt(r['rtol'])}"

@@ -79,9 +79,9 @@ def drive_value(t, kind, value, ramp, sched_t, sched_v, switches):
 
 
 @njit(cache=True)
-def _fun(t, y, out, ka, drive):
+def _fun(t, y, out, ka, drive, general):
     ka[0][K.P_TORQUE] = drive_value(t, *drive)
-    K.rhs(y, out, *ka)
+    K.model_rhs(general, y, out, *ka)
     for i in range(out.shape[0]):
         if not math.isfinite(out[i]):
             return False
@@ -126,11 +126,11 @@ def _change_d(D, order, factor):
 
 
 @njit(cache=True)
-def _jacobian(t, y, f, ka, drive, kl, ku, jab, yw, fw, color, lo, hi, ist):
-    ok = _fun(t, y, f, ka, drive)
+def _jacobian(t, y, f, ka, drive, kl, ku, jab, yw, fw, color, lo, hi, ist, general):
+    ok = _fun(t, y, f, ka, drive, general)
     prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws = ka
-    K.colored_jacobian(y, f, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl, ku,
-                       jab, 1.0, yw, fw, color, lo, hi)
+    K.model_colored_jacobian(general, y, f, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook,
+                             ws, kl, ku, jab, 1.0, yw, fw, color, lo, hi)
     ist[I_JAC] += 1
     ist[I_JAC_STEP] = ist[I_STEPS]
     ist[I_RHS] += 1 + color.max() + 1
@@ -155,13 +155,13 @@ def _factor(c, jab, lu, kl, ku, ipiv, backup, ist):
 
 
 @njit(cache=True)
-def bdf_start(t, y, D, st, ist, ka, drive, f, yw):
+def bdf_start(t, y, D, st, ist, ka, drive, f, yw, general):
     """Begin at (t, y): order 1, the initial step of Hairer, Nørsett & Wanner (Solving ODEs I,
     Sec. II.4) as scipy's ``select_initial_step`` chooses it; returns False on a non-finite
     right-hand side."""
     n = y.shape[0]
     rtol, atol = st[S_RTOL], st[S_ATOL]
-    if not _fun(t, y, f, ka, drive):
+    if not _fun(t, y, f, ka, drive, general):
         return False
     scale = atol + rtol * np.abs(y)
     d0, d1 = _norm(y, scale), _norm(f, scale)
@@ -169,7 +169,7 @@ def bdf_start(t, y, D, st, ist, ka, drive, f, yw):
     for i in range(n):
         yw[i] = y[i] + h0 * f[i]
     f1 = np.empty(n)
-    if not _fun(t + h0, yw, f1, ka, drive):
+    if not _fun(t + h0, yw, f1, ka, drive, general):
         return False
     d2 = _norm(f1 - f, scale) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
@@ -189,9 +189,10 @@ def bdf_start(t, y, D, st, ist, ka, drive, f, yw):
 
 @njit(cache=True)
 def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, backup,
-                color, lo, hi, max_steps):
+                color, lo, hi, max_steps, general):
     """Step until the internal time reaches ``t_out``, then interpolate y(t_out) into
-    ``y_out``. Returns 0, 1 (step size below the rounding of t) or 2 (``max_steps`` steps)."""
+    ``y_out``. Returns 0, 1 (step size below the rounding of t) or 2 (``max_steps`` steps).
+    ``general``: :func:`flagellum.rod.kernels.general_flag` of the model."""
     n = D.shape[1]
     rtol, atol = st[S_RTOL], st[S_ATOL]
     f = np.empty(n)
@@ -235,11 +236,11 @@ def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, back
             while not converged:
                 if ist[I_JAC_OK] == 0:  # the first step after a (re)start
                     ist[I_JAC_START] += 1
-                    _jacobian(t_new, ypred, fw, ka, drive, kl, ku, jab, yw, f, color, lo, hi, ist)
+                    _jacobian(t_new, ypred, fw, ka, drive, kl, ku, jab, yw, f, color, lo, hi, ist, general)
                 elif ist[I_JAC_CUR] == 0 and ist[I_AHEAD_LEFT] > 0:
                     ist[I_AHEAD_LEFT] -= 1
                     ist[I_JAC_AHEAD] += 1
-                    _jacobian(t_new, ypred, fw, ka, drive, kl, ku, jab, yw, f, color, lo, hi, ist)
+                    _jacobian(t_new, ypred, fw, ka, drive, kl, ku, jab, yw, f, color, lo, hi, ist, general)
                 if ist[I_LU_OK] == 0 or c != st[S_C]:
                     if not _factor(c, jab, lu, kl, ku, ipiv, backup, ist):
                         break
@@ -258,7 +259,7 @@ def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, back
                 for k in range(max(NEWTON_MAXITER, STALE_MAXITER)):
                     n_iter = k + 1
                     ist[I_RHS] += 1
-                    if not _fun(t_new, ynew, f, ka, drive):
+                    if not _fun(t_new, ynew, f, ka, drive, general):
                         break
                     for j in range(n):
                         dy[j] = c * f[j] - psi[j] - d[j]
@@ -284,7 +285,7 @@ def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, back
                 ist[I_JAC_DIVERGED if diverged else I_JAC_MAXITER] += 1
                 ist[I_AHEAD_LEFT] = PROBE
                 ist[I_JAC_AGE] += ist[I_STEPS] - ist[I_JAC_STEP]
-                _jacobian(t_new, ypred, fw, ka, drive, kl, ku, jab, yw, f, color, lo, hi, ist)
+                _jacobian(t_new, ypred, fw, ka, drive, kl, ku, jab, yw, f, color, lo, hi, ist, general)
             if not converged:
                 ist[I_NFAIL] += 1
                 h *= 0.5
@@ -451,14 +452,15 @@ class BdfStepper:
         ka = m.kernel_arrays
         if self._ist[I_STARTED] == 0:
             if not bdf_start(self.t, self.y, self._D, self._st, self._ist, ka, drive,
-                             self._f, self._yw):
+                             self._f, self._yw, K.general_flag(m.iprm)):
                 raise SimulationError(f"BDF: non-finite right-hand side at t = {self.t:.6g} s")
         if t <= self.t:
             return self.y
         y = np.empty_like(self.y)
         code = bdf_advance(float(t), y, self._D, self._st, self._ist, ka, drive, self._kl,
                            self._ku, self._jab, self._lu, self._ipiv, self._backup,
-                           *m.jacobian_colors(self._kl, self._ku), self.max_num_steps)
+                           *m.jacobian_colors(self._kl, self._ku), self.max_num_steps,
+                           K.general_flag(m.iprm))
         if code != 0 or not np.all(np.isfinite(y)):
             why = {1: "step size fell below the rounding of t",
                    2: f"more than {self.max_num_steps} steps"}.get(code, "non-finite state")

@@ -77,19 +77,19 @@ def thermal_forces(y, prm, iprm, ref_u, ref_e, kT, dt, g_f, g_m, g_h, ws, xi_f, 
 
 
 @njit(cache=True)
-def _mobility(y, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_h, ws, out, gen):
+def _mobility(y, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_h, ws, out, gen, general):
     """out = M(y) applied to the given forces (no elastic forces, motor or frame rotation)."""
     el, om, tq, g0 = prm[K.P_ELASTIC], prm[K.P_OMEGA], prm[K.P_TORQUE], iprm[K.I_GEN]
     prm[K.P_ELASTIC] = 0.0
     prm[K.P_OMEGA] = 0.0
     iprm[K.I_GEN] = gen
-    K.rhs(y, out, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_h, ws)
+    K.model_rhs(general, y, out, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_h, ws)
     prm[K.P_ELASTIC], prm[K.P_OMEGA], prm[K.P_TORQUE], iprm[K.I_GEN] = el, om, tq, g0
 
 
 @njit(cache=True)
 def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, ym, f1, f2,
-                      zf, zm, zh, xi_f, xi_m, xi_h, xi_bead):
+                      zf, zm, zh, xi_f, xi_m, xi_h, xi_bead, general):
     """b = Δt M(y) ξ + Δt kT ∂·M(y) (random finite difference) from the unit normals g.
     ``xi_bead`` (n+1, 3), if not empty, replaces the bead part of ξ (the thermal forces of a
     nonlocal mobility, :meth:`ImplicitStepper._nonlocal_increment`)."""
@@ -105,7 +105,7 @@ def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, y
     thermal_forces(y, prm, iprm, ref_u, ref_e, kT, dt, gf, gm, gh, ws, xi_f, xi_m, xi_h)
     if xi_bead.shape[0] > 0:
         xi_f[:, :] = xi_bead
-    _mobility(y, prm, iprm, ref_u, ref_e, ref_m, xi_f, xi_m, xi_h, ws, f1, 0)
+    _mobility(y, prm, iprm, ref_u, ref_e, ref_m, xi_f, xi_m, xi_h, ws, f1, 0, general)
     for i in range(ny):
         b[i] = dt * f1[i]
     wv = g[o:o + ny]
@@ -123,8 +123,8 @@ def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, y
             ym[3 + 4 * i + c] -= 0.5 * RFD_DELTA * zf[i, c]
         yp[6 + 4 * i] += 0.5 * RFD_DELTA * zm[i]
         ym[6 + 4 * i] -= 0.5 * RFD_DELTA * zm[i]
-    _mobility(yp, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1)
-    _mobility(ym, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1)
+    _mobility(yp, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1, general)
+    _mobility(ym, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1, general)
     for i in range(ny):
         b[i] += dt * kT / RFD_DELTA * (f1[i] - f2[i])
     zf[:, :] = 0.0
@@ -185,7 +185,7 @@ def _anderson(y, d, f_prev, g_prev, df, dg, a, gam, na, m):
 @njit(cache=True)
 def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT, torques, normals,
                    ws, ab, ipiv, backup, jac_age, jac_every, work, xwork, tol, max_iter, slow, hist,
-                   colors, increments):
+                   colors, increments, general):
     """Advance y in place by ``n_steps`` drift-implicit steps of size ``dt``.
 
     θ-method (``theta`` in [1/2, 1])::
@@ -252,13 +252,13 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
             b[:] = increments[k]
         elif kT > 0.0:
             thermal_increment(y, dt, kT, normals[k], prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, ym,
-                              f1, f2, zf, zm, zh, xi_f, xi_m, xi_h, zf[:0])
+                              f1, f2, zf, zm, zh, xi_f, xi_m, xi_h, zf[:0], general)
         two = bdf2 and hist[0] == 1.0 and abs(hist[1] - dt) <= 1e-9 * dt
         beta = 2.0 / 3.0 if two else (1.0 if bdf2 else theta)
         for i in range(ny):  # d ← everything of the residual that does not depend on y_{n+1}
             d[i] = (4.0 * yn[i] - y1[i] - b1[i]) / 3.0 + b[i] if two else yn[i] + b[i]
         if beta < 1.0 and not two:
-            K.rhs(yn, fn, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
+            K.model_rhs(general, yn, fn, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
             for i in range(ny):
                 d[i] += (1.0 - theta) * dt * fn[i]
         for i in range(ny):
@@ -275,9 +275,10 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
         for it in range(max_iter):
             fresh = jac_age < 0 or jac_age >= jac_every
             if fresh:
-                K.rhs(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
-                K.colored_jacobian(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, kl, ku, ab,
-                                   -beta * dt, yw, fw, colors[0], colors[1], colors[2])
+                K.model_rhs(general, y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
+                K.model_colored_jacobian(general, y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh,
+                                         ws, kl, ku, ab, -beta * dt, yw, fw, colors[0], colors[1],
+                                         colors[2])
                 for j in range(ny):
                     ab[j, kv] += 1.0
                 hist[2] = beta
@@ -289,7 +290,7 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
                 n_jac += 1
                 na = 0
             if not fresh:  # (a fresh Jacobian has just evaluated f at y)
-                K.rhs(y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
+                K.model_rhs(general, y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
             for i in range(ny):
                 d[i] = -(y[i] - fn[i] - beta * dt * f[i])
             band_solve(ab, kl, ku, ipiv, d, hist[3] != 0.0, xwork)
@@ -460,7 +461,7 @@ class ImplicitStepper:
             self.y, t0, k, dt, self.theta, m.prm, m.iprm, m.ref_u, m.ref_e, m.ref_m, self.kT, torques,
             np.ascontiguousarray(normals), m.kernel_arrays[-1], self._ab, self._ipiv, self._backup, self._jac_age,
             self.jac_every, self._work, self._xwork, self.tol, self.max_iter, self.slow, self._hist,
-            m.jacobian_colors(self._kl, self._ku), increments)
+            m.jacobian_colors(self._kl, self._ku), increments, K.general_flag(m.iprm))
         self.n_steps += done
         self.n_iter += it
         self.n_jac += nj
@@ -500,16 +501,17 @@ class ImplicitStepper:
         b, yp, ym, f1, f2 = w[1].copy(), w[6], w[7], w[8], w[9]
         zf, zm, zh = np.zeros((n1, 3)), np.zeros(n1), np.zeros(3)
         thermal_increment(y, dt, self.kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, ym, f1, f2,
-                          zf, zm, zh, np.zeros((n1, 3)), np.zeros(n1), np.zeros(3), xi.reshape(n1, 3))
+                          zf, zm, zh, np.zeros((n1, 3)), np.zeros(n1), np.zeros(3), xi.reshape(n1, 3),
+                          K.general_flag(iprm))
         wv = g[4 * n1 + 3:4 * n1 + 3 + ny]
         zf[:] = wv[3:].reshape(n1, 4)[:, :3]
         zf.reshape(-1)[~free] = 0.0
         zm[:] = wv[3:].reshape(n1, 4)[:, 3]
         frozen = dm.copy()
         dm[:] = correction(x + RFD_DELTA * zf, *m.mobility_arguments(), symmetric=True)
-        _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1)
+        _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1, K.general_flag(iprm))
         dm[:] = frozen
-        _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1)
+        _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1, K.general_flag(iprm))
         b += dt * self.kT / RFD_DELTA * (f1 - f2)
         return b
 

@@ -31,7 +31,8 @@ def _entry_points() -> dict:
     from ..rod import kernels
     from . import bdf, brownian
 
-    return {"cvode": kernels.colored_jacobian, "bdf": bdf.bdf_advance,
+    # (the Jacobian a default CVODE run compiles: without a cell body, the pruned kernel)
+    return {"cvode": kernels.rod_colored_jacobian, "bdf": bdf.bdf_advance,
             "implicit": brownian.implicit_steps}
 
 

@@ -756,6 +756,36 @@ colored_jacobian = _jacobian_kernel(rhs)
 rod_colored_jacobian = _jacobian_kernel(rod_rhs)
 
 
+def general_flag(iprm):
+    """The ``general`` argument of :func:`model_rhs` for the model of ``iprm``: None where
+    :func:`specialised` (the pruned kernels), else True."""
+    return None if specialised(iprm) else True
+
+
+# The compiled solvers' loops call the kernels through these two: Numba drops an
+# ``is None`` branch on a None argument before typing, so a loop compiled for
+# ``general = None`` compiles only the pruned kernels (the compile pause of a first run).
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def model_rhs(general, y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws):
+    """:func:`rod_rhs` if ``general`` is None, else :func:`rhs` (:func:`general_flag`)."""
+    if general is None:
+        rod_rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws)
+    else:
+        rhs(y, ydot, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws)
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def model_colored_jacobian(general, y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook,
+                           ws, kl, ku, ab, scale, y_work, f_work, color, lo, hi):
+    """:func:`rod_colored_jacobian` if ``general`` is None, else :func:`colored_jacobian`."""
+    if general is None:
+        rod_colored_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl,
+                             ku, ab, scale, y_work, f_work, color, lo, hi)
+    else:
+        colored_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl, ku,
+                         ab, scale, y_work, f_work, color, lo, hi)
+
+
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def band_colors(n, kl, ku):
     """Colouring of a full band: columns j, j + w, j + 2w, … together (w = kl + ku + 1)."""

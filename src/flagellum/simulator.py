@@ -36,7 +36,7 @@ from .helix import Helix
 from .hydro.body import matrix_rotvec, rotvec_matrix
 from .hydro.options import Hydrodynamics
 from .hydro.rft import pinned_helix, pinned_omega_per_torque
-from .integrate import ATOL_PER_RTOL, default_method
+from .integrate import ATOL_PER_RTOL, MAX_STEPS_PER_ADVANCE, default_method
 from .integrate.base import STEPPERS, make_stepper
 from .motor import Boundary, Motor
 from .params import EndLoad, Params, Polymorphism, check_choice, check_range, check_real, positive
@@ -48,7 +48,12 @@ from .trajectory import COMPLETE, OutputError, RunFiles, Trajectory
 MAX_STRAIN = 0.5  #: a bond stretched or compressed by more than this is a blow-up
 MAX_RECORDS = 10**6  #: records per run (memory of the returned trajectory)
 MIN_SPAN = 1e-9  #: shortest run [s]: CVODE cannot step across a span at the rounding of t
-CHART_LIMIT = -0.8  #: re-centre a chart (and restart the integrator) when t·u falls below this
+#: re-centre a chart (and restart the integrator) when t·u falls below this. The reference
+#: vector's parallel transport from the pole u turns like 1/(1 + t·u), and tangents left
+#: until t·u < −0.5 made both adaptive integrators grind at h ≈ 1e-9–1e-8 s in a whirling
+#: lab-frame run (load sphere, M = 4.37 pN·µm: 20 000 steps per 1-ms chunk); re-centred at 90°
+#: the same run takes ≤ 200 steps per chunk (docs/benchmarks.md, "Stalls")
+CHART_LIMIT = 0.0
 
 
 @dataclass(frozen=True)
@@ -63,6 +68,8 @@ class SolverOptions:
     rtol, atol : CVODE tolerances (positions in µm, angles in rad); ``atol=None`` means
         ``rtol * ATOL_PER_RTOL`` (:data:`flagellum.integrate.ATOL_PER_RTOL`).
     dt : step of the fixed-step scheme [s].
+    max_steps : internal steps an adaptive method may take per chunk between chart checks
+        before the run fails (:data:`flagellum.integrate.MAX_STEPS_PER_ADVANCE`).
     scheme : fixed-step scheme: ``"bdf2"`` (default: second order, L-stable, damps the stiff
         bond-scale modes without damping the slow buckling mode) or ``"theta"`` (the default
         when ``theta`` is given).
@@ -82,6 +89,7 @@ class SolverOptions:
     theta: float | None = None
     frame: str | float = "auto"
     scheme: str | None = None
+    max_steps: int = MAX_STEPS_PER_ADVANCE
 
     def __post_init__(self):
         if self.method is not None:
@@ -96,6 +104,8 @@ class SolverOptions:
             object.__setattr__(self, "atol", self.rtol * ATOL_PER_RTOL)
         object.__setattr__(self, "atol", check_range("atol", self.atol, 0.0, 1.0))
         object.__setattr__(self, "dt", check_range("dt", self.dt, 1e-9, 1e-2, lo_open=False))
+        object.__setattr__(self, "max_steps", int(check_range("max_steps", self.max_steps, 1, 1e9,
+                                                              lo_open=False)))
         object.__setattr__(self, "theta", check_range("theta", self.theta, 0.5, 1.0, lo_open=False))
         if not isinstance(self.frame, str):
             object.__setattr__(self, "frame", check_range("frame", self.frame, -1e6, 1e6, lo_open=False))
@@ -484,14 +494,15 @@ class Simulator:
 
     def _advance_chunk(self, stepper, t_next: float) -> np.ndarray:
         """One chunk; if the stepper fails, once more from the chunk's start after re-centring
-        every chart a tangent has turned more than 90° from (a fast turn, e.g. the free end
-        whipping round while its form changes, can carry a tangent within one chunk from
-        near CHART_LIMIT to its chart's singular point)."""
+        every chart a tangent has turned past CHART_LIMIT from during the chunk (a fast turn,
+        e.g. the free end whipping round while its form changes, can carry a tangent within
+        one chunk towards its chart's singular point). A failure with no such chart, or a
+        second failure, is the run's failure (raised)."""
         t0, y0 = stepper.t, stepper.y.copy()
         try:
             return stepper.advance(t_next)
         except SimulationError:
-            if not self.model.rechart(y0, threshold=0.0):
+            if not self.model.rechart(y0, threshold=CHART_LIMIT):
                 raise
             self.model.refresh_mobility(y0, force=True)
             stepper.reset(t0, y0)
@@ -630,7 +641,7 @@ class Simulator:
                 self.t, self.y = float(tk), y
                 good = (self.t, self.y.copy(), self.frame_angle)
                 self._record(buf)
-                changed = self.model.rechart(self.y)
+                changed = self.model.rechart(self.y, threshold=CHART_LIMIT)
                 changed |= self._adapt_frame(buf)
                 if bar is not None:
                     bar.update(1)

@@ -7,6 +7,15 @@ the fixed-step drift-implicit scheme with thermal noise (:mod:`.brownian`), band
 #: integrators (``atol = rtol * ATOL_PER_RTOL``; the rod's state is in µm and rad)
 ATOL_PER_RTOL = 1e-2
 
+#: internal steps an error-controlled integrator may take in one ``advance`` before it
+#: reports failure (CVODE's ``mxstep``; the same for every adaptive stepper). The simulator
+#: advances in chunks of at most 0.5 rad of motor rotation (≤ 5 ms), which take 7–14 steps
+#: (median) and ≤ ~200 in the stiffest healthy runs measured (docs/benchmarks.md, "Stalls"), so
+#: a chunk that needs more has a step size collapsed to < 1e-6 of a chunk: it fails fast,
+#: and the simulator's retry from re-centred charts or the next method of a fallback chain
+#: takes over instead of the run grinding on
+MAX_STEPS_PER_ADVANCE = 5000
+
 
 def default_method(*, thermal: bool = False, local: bool = True, cell: bool = False,
                    moving_trap: bool = False, polymorphic: bool = False) -> str:

@@ -30,7 +30,7 @@ class Stepper(Protocol):
     ``from_options(model, t, y, options, *, kT, seed, rng_state)`` (classmethod)
         Build a stepper at time ``t`` [s] and state ``y`` (copied) for ``model``;
         ``options`` is the run's :class:`~flagellum.simulator.SolverOptions` (read what
-        applies: ``rtol``, ``atol``, ``dt``, ``scheme``, ``theta``); ``kT`` [pN·µm] is the
+        applies: ``rtol``, ``atol``, ``max_steps``, ``dt``, ``scheme``, ``theta``); ``kT`` [pN·µm] is the
         thermal energy (0: deterministic); ``seed`` and ``rng_state`` (a value of
         :attr:`rng_state`, or None) start or restore the random stream.
     ``t``, ``y``
@@ -47,7 +47,12 @@ class Stepper(Protocol):
     ``advance(t) -> y``
         Integrate to time ``t`` ≥ ``self.t`` and return the new state (also ``self.y``);
         raise :class:`~flagellum.errors.SimulationError` on failure. The model's charts
-        and frame rate do not change during the call.
+        and frame rate do not change during the call. An adaptive scheme fails when one call
+        would take more than ``options.max_steps`` internal steps (default
+        :data:`~flagellum.integrate.MAX_STEPS_PER_ADVANCE`, the same for every adaptive
+        stepper): a collapsed step size is then a failure the simulator can act on (retry
+        from re-centred charts, the next method of
+        :func:`~flagellum.simulator.run_first_success`), not a run that grinds on.
     ``reset(t, y)``
         Restart at (t, y) forgetting any history (the right-hand side may have changed).
         Reset at equal (t, y) and advancing must give the same result as a fresh stepper

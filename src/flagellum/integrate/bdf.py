@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import ParameterError, SimulationError
+from . import MAX_STEPS_PER_ADVANCE
 from ..rod import kernels as K
 from ..rod.model import JACOBIAN_BAND
 from .banded import band_factor, band_solve
@@ -381,7 +382,7 @@ class BdfStepper:
     rng_state = None
 
     def __init__(self, model, t0: float, y0: np.ndarray, rtol: float = 1e-6,
-                 atol: float = 1e-8, max_num_steps: int = 500000):
+                 atol: float = 1e-8, max_num_steps: int = MAX_STEPS_PER_ADVANCE):
         if model.jacobian_band != JACOBIAN_BAND:  # a nonlocal mobility or a cell body
             raise ParameterError("method", "bdf", "'cvode' with a nonlocal mobility or a cell "
                                  "body (the BDF stepper needs the rod's banded Jacobian)")
@@ -412,10 +413,10 @@ class BdfStepper:
     @classmethod
     def from_options(cls, model, t: float, y: np.ndarray, options, *, kT: float = 0.0,
                      seed: int = 0, rng_state=None) -> "BdfStepper":
-        """The stepper of ``options`` (``rtol``, ``atol``); deterministic only."""
+        """The stepper of ``options`` (``rtol``, ``atol``, ``max_steps``); deterministic only."""
         if kT:
             raise ParameterError("method", "bdf", "'implicit' for a thermal run")
-        return cls(model, t, y, options.rtol, options.atol)
+        return cls(model, t, y, options.rtol, options.atol, max_num_steps=options.max_steps)
 
     @property
     def n_steps(self) -> int:

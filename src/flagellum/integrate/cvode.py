@@ -27,6 +27,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import SimulationError
+from . import MAX_STEPS_PER_ADVANCE
 from .banded import band_factor, band_solve
 from ..rod import kernels as K
 from ..rod.model import JACOBIAN_BAND
@@ -136,7 +137,7 @@ class CvodeStepper:
     change of the right-hand side (new chart, new frame rate). Satisfies
     :class:`flagellum.integrate.base.Stepper` (adaptive: ``fixed_step`` is None;
     deterministic: ``rng_state`` is None). ``max_num_steps``: CVODE's limit of internal
-    steps per :meth:`advance`.
+    steps per :meth:`advance` (per CVODE call with a frozen nonlocal mobility).
     """
 
     fixed_step = None
@@ -145,7 +146,8 @@ class CvodeStepper:
     smooth_refresh = True
 
     def __init__(self, model, t0: float, y0: np.ndarray, rtol: float = 1e-6,
-                 atol: float = 1e-8, max_step: float = 0.0, max_num_steps: int = 100000):
+                 atol: float = 1e-8, max_step: float = 0.0,
+                 max_num_steps: int = MAX_STEPS_PER_ADVANCE):
         try:
             from sksundae.cvode import CVODE
         except ImportError as exc:  # pragma: no cover - dependency declared
@@ -179,9 +181,9 @@ class CvodeStepper:
     @classmethod
     def from_options(cls, model, t: float, y: np.ndarray, options, *, kT: float = 0.0,
                      seed: int = 0, rng_state=None) -> "CvodeStepper":
-        """The stepper of ``options`` (``rtol``, ``atol``); deterministic, so ``kT``, ``seed``
-        and ``rng_state`` are not used."""
-        return cls(model, t, y, options.rtol, options.atol)
+        """The stepper of ``options`` (``rtol``, ``atol``, ``max_steps``); deterministic, so
+        ``kT``, ``seed`` and ``rng_state`` are not used."""
+        return cls(model, t, y, options.rtol, options.atol, max_num_steps=options.max_steps)
 
     def _rhs(self, t, y, yp):
         if t > self._t_max:  # a new step attempt (CVODE does not expose its counters here)

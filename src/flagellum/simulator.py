@@ -164,7 +164,8 @@ def resolve_method(solver: SolverOptions, thermal: bool, hydrodynamics: Hydrodyn
         thermal=thermal, local=hydrodynamics.is_local,
         cell=boundary is not None and boundary.is_cell,
         moving_trap=end_load is not None and end_load.active and end_load.pull_rate != 0.0,
-        polymorphic=polymorphism is not None))
+        polymorphic=polymorphism is not None,
+        unfrozen=not hydrodynamics.is_local and hydrodynamics.refresh == 0.0))
 
 
 def _rotate_z(v: np.ndarray, angle: float) -> np.ndarray:

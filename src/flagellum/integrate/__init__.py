@@ -9,19 +9,23 @@ ATOL_PER_RTOL = 1e-2
 
 
 def default_method(*, thermal: bool = False, local: bool = True, cell: bool = False,
-                   moving_trap: bool = False, polymorphic: bool = False) -> str:
+                   moving_trap: bool = False, polymorphic: bool = False,
+                   unfrozen: bool = False) -> str:
     """The integrator of a run that names none (``SolverOptions(method=None)``).
 
     ``"implicit"`` with thermal noise (the only scheme for it); ``"bdf"`` (the Numba BDF) for
-    the deterministic runs it supports and was measured on — the local mobility (RFT), no cell
-    body, no moving trap, a single-state filament — where at equal rtol it is 1.4–2.1× faster
-    than CVODE with an equal or smaller error of the time-averaged thrust, ω and χ
-    (docs/benchmarks.md, "The Numba BDF against CVODE"); ``"cvode"`` otherwise (a nonlocal
-    mobility or a cell body couples outside the BDF's band; a moving trap's centre is set
-    outside the compiled loop; polymorphic runs were not measured).
+    the deterministic runs it supports and was measured on — the local mobility (RFT) or the
+    frozen nonlocal one (SBT), no cell body, no moving trap, a single-state filament — where
+    at equal rtol it is 1.4–2.1× faster than CVODE with RFT (docs/benchmarks.md, "The Numba
+    BDF against CVODE") and 1.5–2.5× with SBT, whose time averages it reproduces to
+    ≤ 1e-4 (docs/hydrodynamics.md, "Cost against RFT"); ``"cvode"`` otherwise (a cell body
+    couples outside the BDF's band; a nonlocal mobility rebuilt at every right-hand side,
+    ``unfrozen``, and a moving trap's centre are set outside the compiled loop; polymorphic
+    runs were not measured). ``local``: the mobility is local (both kinds run on the BDF,
+    a nonlocal one unless ``unfrozen``).
     """
     if thermal:
         return "implicit"
-    if local and not cell and not moving_trap and not polymorphic:
+    if not (cell or moving_trap or polymorphic or (unfrozen and not local)):
         return "bdf"
     return "cvode"

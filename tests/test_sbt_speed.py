@@ -84,3 +84,15 @@ def test_bdf_with_the_frozen_mobility_agrees_with_cvode(boundary):
     assert Simulator(SHORT, hydrodynamics=Hydrodynamics("sbt")).solver.method == "bdf"
     for got, want in zip(out["bdf"], out["cvode"]):
         assert got == pytest.approx(want, rel=1e-4)
+
+
+def test_bench_reports_the_sbt_regimes_with_their_ratio_to_rft():
+    """``flagellum bench --sbt-regimes``: each regime with both models, the same work (the
+    RFT run's thrust per torque is the paper's ≈ 0.9 /µm, SBT's ≈ 40 % lower:
+    docs/hydrodynamics.md, "The paper's numbers with RFT and SBT")."""
+    from flagellum.bench import sbt_regimes
+
+    row = sbt_regimes(quick=True, names=("from_rest_M1",), reference=False)["from_rest_M1"]
+    assert row["rft"]["method"] == row["sbt"]["method"] == "bdf"
+    assert row["cpu_ratio"] == pytest.approx(row["sbt"]["cpu_seconds"] / row["rft"]["cpu_seconds"])
+    assert row["sbt"]["thrust"] < 0.7 * row["rft"]["thrust"]

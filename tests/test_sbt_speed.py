@@ -69,13 +69,16 @@ def test_ramp_goes_linearly_from_the_old_to_the_new_correction():
 
 
 @pytest.mark.parametrize("boundary", [Boundary(), Boundary(anchor="sphere", sphere_radius=1.0)])
-def test_bdf_with_the_frozen_mobility_agrees_with_cvode(boundary):
-    """The default stepper of an SBT run (the Numba BDF, its ramp compiled in) against CVODE
-    with the same frozen splitting at a tight tolerance (an independent integrator): time
-    averages of thrust and rotation rate over the second half of a short run from rest."""
+def test_bdf_with_the_frozen_mobility_follows_the_unfrozen_splitting(boundary):
+    """The default stepper of an SBT run (the Numba BDF, its ramp compiled in) against the
+    unfrozen splitting (refresh 0: ΔM rebuilt at every right-hand side) on CVODE at a tight
+    tolerance, an independent integrator: time averages of thrust and rotation rate over
+    the second half of a short run from rest (10 ms, still a transient) within 2e-3
+    (measured: thrust 4.4e-4 anchored, 1.4e-3 on the load sphere; SBT and RFT differ by
+    40 %)."""
     out = {}
-    for method, rtol in (("bdf", 1e-6), ("cvode", 1e-9)):
-        sim = Simulator(SHORT, Motor(1.0), boundary, hydrodynamics=Hydrodynamics("sbt"),
+    for method, rtol, refresh in (("bdf", 1e-6, 0.02), ("cvode", 1e-9, 0.0)):
+        sim = Simulator(SHORT, Motor(1.0), boundary, hydrodynamics=Hydrodynamics("sbt", refresh=refresh),
                         solver=SolverOptions(method=method, rtol=rtol))
         tr = sim.run(0.01, save_every=1e-4, progress=False)
         k = len(tr.t) // 2
@@ -83,7 +86,7 @@ def test_bdf_with_the_frozen_mobility_agrees_with_cvode(boundary):
                        (tr.motor_angle[-1] - tr.motor_angle[k]) / (tr.t[-1] - tr.t[k]))
     assert Simulator(SHORT, hydrodynamics=Hydrodynamics("sbt")).solver.method == "bdf"
     for got, want in zip(out["bdf"], out["cvode"]):
-        assert got == pytest.approx(want, rel=1e-4)
+        assert got == pytest.approx(want, rel=2e-3)
 
 
 def test_bench_reports_the_sbt_regimes_with_their_ratio_to_rft():

@@ -433,7 +433,8 @@ class BdfStepper:
         if not self._frozen.active:
             return self._advance(t)
         # the compiled steps are not stopped at the sub-targets: it interpolates, as CVODE
-        self._frozen.advance(self.t, self.y, t, lambda tn: (True, self._advance(tn), None))
+        self._frozen.advance(self.t, self.y, t,
+                             lambda tn: (True, self._advance(tn), None, float(self._st[S_T])))
         return self.y
 
     def _advance(self, t: float) -> np.ndarray:

@@ -67,29 +67,32 @@ class FrozenMobility:
         if self.arrays[2][R_ACTIVE]:
             ramp_mobility(t, self.model.kernel_arrays[-1][-1], *self.arrays)
 
-    def check(self, t: float, y: np.ndarray) -> None:
-        """Rebuild (or turn) ΔM if the beads of y have moved too far, and start the ramp."""
+    def check(self, t: float, y: np.ndarray, start: float | None = None) -> None:
+        """Rebuild (or turn) ΔM if the beads of y (at t) have moved too far, and start the
+        ramp at ``start`` (default t): the stepper's own time, which is past t when it
+        interpolated y there (a ramp begun at t would make the right-hand side jump)."""
         m = self.model
         dm = m.kernel_arrays[-1][-1]
         frm, delta, rp = self.arrays
-        if rp[R_ACTIVE]:  # the value applied at t
+        t0 = t if start is None else max(t, start)
+        if rp[R_ACTIVE]:  # the value applied at t0
             rp[R_S] = -1.0
-            ramp_mobility(t, dm, frm, delta, rp)
+            ramp_mobility(t0, dm, frm, delta, rp)
         current = dm.copy() if self.smooth else None
         if not m.refresh_mobility(y):
             return
         if self.smooth and t > self.last_build:
             frm[:] = current
             np.subtract(dm, current, out=delta)
-            rp[:] = (t, t - self.last_build, -1.0, 1.0)
+            rp[:] = (t0, t - self.last_build, -1.0, 1.0)
         else:
             rp[R_ACTIVE] = 0.0
         self.last_build = t
 
     def advance(self, t_from: float, y_from: np.ndarray, t: float, step):
         """Advance from (t_from, y_from) to t through sub-targets, ``step(tn)`` returning
-        (ok, y, result) of the stepper at tn; ΔM is checked after each. Returns the last
-        ``result`` (also the failed one)."""
+        (ok, y at tn, result, the stepper's own time); ΔM is checked after each. Returns the
+        last ``result`` (also the failed one)."""
         m = self.model
         refresh = m.hydrodynamics.refresh
         tc, xc = t_from, m_positions(y_from)
@@ -100,14 +103,14 @@ class FrozenMobility:
             tn = min(t, tc + self.sub)
             if t - tn < 0.25 * self.sub:
                 tn = t
-            ok, y, res = step(tn)
+            ok, y, res, t_own = step(tn)
             if not ok:
                 return res
             xn = m_positions(y)
             moved = float(np.max(np.abs(xn - xc)))
             if moved > 0:
                 self.sub = min(2.0, max(0.25, 0.5 * refresh / moved)) * (tn - tc)
-            self.check(tn, y)
+            self.check(tn, y, t_own)
             tc, xc = tn, xn
             if tn >= t:
                 return res

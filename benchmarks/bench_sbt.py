@@ -1,14 +1,14 @@
 """Cost of the nonlocal mobility (``--hydrodynamics sbt``) against local RFT, measured in one
 run on this machine (docs/hydrodynamics.md, "Cost").
 
-    python benchmarks/bench_sbt.py [--n 50 100 200 400] [--window 0.02] [--out benchmarks/bench_sbt.json]
+    python benchmarks/bench_sbt.py [--n 50 100 200 400] [--torques 1 2] [--window 0.02] [--out benchmarks/bench_sbt.json]
 
 For each N (L = 10 µm, h = 10 µm/N; anchored filament, CVODE rtol 1e-6, co-rotating frame)
 and each regime — aligned M = 1 pN·µm, buckled M = 2 pN·µm (above M_c1 of both models) —
 the run starts from the pinned helix, is warmed up over ``warmup`` simulated seconds
-(untimed), then timed over ``window``: CPU and wall seconds per simulated second, steps,
-right-hand sides, rebuilds of ΔM (``correction`` calls) and their share of the time, and
-the SBT/RFT ratio of the same run. CPU time (``time.process_time``) is the one to read on a
+(untimed), then timed over ``window``, each model at its default method (the Numba BDF):
+CPU and wall seconds per simulated second, steps, right-hand sides, rebuilds of ΔM
+(``correction`` calls) and their share of the time, and the SBT/RFT ratio of the same run. CPU time (``time.process_time``) is the one to read on a
 shared machine. Then the stability analysis: M_c1 of the anchored filament (N = 50) with
 each model, and a lab-frame run at rtol 1e-8 (which the rebuild jumps used to break).
 """
@@ -24,13 +24,12 @@ import numpy as np
 import flagellum.rod.model as rod_model
 from flagellum.bench import load_average
 from flagellum.hydro.options import Hydrodynamics
-from flagellum.integrate import cvode
 from flagellum.motor import Motor
 from flagellum.params import Filament, Params
 from flagellum.simulator import Simulator, SolverOptions
 
-COUNT = {"rhs": 0, "builds": 0, "build_s": 0.0}
-_correction, _rhs = rod_model.correction, cvode.CvodeStepper._rhs
+COUNT = {"builds": 0, "build_s": 0.0}
+_correction = rod_model.correction
 
 
 def _counted_correction(*a, **k):
@@ -41,30 +40,35 @@ def _counted_correction(*a, **k):
     return out
 
 
-def _counted_rhs(self, t, y, yp):
-    COUNT["rhs"] += 1
-    return _rhs(self, t, y, yp)
-
-
 rod_model.correction = _counted_correction
-cvode.CvodeStepper._rhs = _counted_rhs
 
 
 def timed_run(n: int, torque: float, model: str, warmup: float, window: float, frame="auto",
-              rtol=1e-6) -> dict:
+              rtol=1e-6, method=None) -> dict:
     p = Params(Filament(segment_length=10.0 / n))
     sim = Simulator(p, Motor(torque), hydrodynamics=Hydrodynamics(model),
-                    solver=SolverOptions(rtol=rtol, frame=frame))
+                    solver=SolverOptions(rtol=rtol, frame=frame, method=method))
+    steppers = []
+    make = sim._stepper
+
+    def spy():  # the stepper of each chunk of records: its counters (the BDF's)
+        steppers.append(make())
+        return steppers[-1]
+
+    sim._stepper = spy
     if warmup > 0:
         sim.run(warmup, save_every=warmup / 10, progress=False)
     for k in COUNT:
         COUNT[k] = 0
+    steppers.clear()
     c0, w0, s0, t0 = time.process_time(), time.perf_counter(), sim.steps, sim.t
     tr = sim.run(t0 + window, save_every=window / 20, progress=False)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
-    return {"n": n, "torque": torque, "model": model, "cpu_per_simulated_second": cpu / window,
+    rhs = sum(st.stats["rhs"] for st in steppers) if all(hasattr(st, "stats") for st in steppers) else None
+    return {"n": n, "torque": torque, "model": model, "method": sim.solver.method,
+            "cpu_per_simulated_second": cpu / window,
             "wall_per_simulated_second": wall / window, "steps": sim.steps - s0,
-            "rhs": COUNT["rhs"], "rebuilds": COUNT["builds"],
+            "rhs": rhs, "rebuilds": COUNT["builds"],
             "rebuild_share": COUNT["build_s"] / cpu if cpu else 0.0,
             "thrust_over_torque": float(np.mean(tr.thrust) / torque)}
 
@@ -77,6 +81,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--no-stability", action="store_true")
     ap.add_argument("--no-lab", action="store_true", help="skip the lab-frame run and the stability analysis")
     ap.add_argument("--only-stability", action="store_true")
+    ap.add_argument("--torques", type=float, nargs="+", default=[1.0, 2.0])
     ap.add_argument("--out", default="benchmarks/bench_sbt.json")
     a = ap.parse_args(argv)
     timed_run(20, 1.0, "sbt", 0.0, 0.001)  # compile everything first
@@ -84,7 +89,7 @@ def main(argv=None) -> dict:
     out: dict = {"load_average_before": load_average(), "window": a.window, "warmup": a.warmup,
                  "runs": []}
     for n in ([] if a.only_stability else a.n):
-        for torque in (1.0, 2.0):
+        for torque in a.torques:
             pair = {m: timed_run(n, torque, m, a.warmup, a.window) for m in ("rft", "sbt")}
             pair["sbt"]["cpu_ratio_to_rft"] = (pair["sbt"]["cpu_per_simulated_second"]
                                                / pair["rft"]["cpu_per_simulated_second"])

@@ -16,6 +16,10 @@
   against a tight-tolerance run whose own convergence is shown by a second, looser one.
   Any deterministic stepper can run them (``solver``; ``flagellum bench --method cvode``);
   by default each run's default method (the Numba BDF for all deterministic ones).
+* ``sbt_regimes`` (:func:`sbt_regimes`, ``flagellum bench --hydrodynamics sbt``): the runs
+  from rest at M = 1, 1.6, the load sphere and the free swimmer with RFT and with the
+  nonlocal mobility, one after the other, their cost ratio and the error of the frozen
+  splitting's time averages against the unfrozen one.
 * ``work_precision`` (:func:`work_precision`): error of those averages against wall time for
   CVODE and the Numba BDF (:mod:`flagellum.integrate.bdf`) over rtol and the fixed-step BDF2
   over Δt (buckled M = 1.6 and M = 1 from rest by default, any of :data:`REGIMES`);
@@ -58,11 +62,12 @@ def steady_state(torque: float = 1.0, params: Params | None = None, warmup: floa
 
 def bench(window: float = 0.2, quick: bool = False, with_regimes: bool = True,
           with_work_precision: bool = False, solver: SolverOptions | None = None,
-          work_precision_names=None, peer: bool = False) -> dict:
+          work_precision_names=None, peer: bool = False, hydrodynamics=None) -> dict:
     """Run all benchmarks; returns the JSON-ready dict (``regimes``: :func:`regimes`, the
     deterministic ones with ``solver`` (default: ``SolverOptions()``); ``work_precision``:
     :func:`work_precision` of ``work_precision_names``, only when asked for; ``peer``:
-    PyElastica on the same regimes, :func:`peer_columns` and :func:`peer_precision`)."""
+    PyElastica on the same regimes, :func:`peer_columns` and :func:`peer_precision`;
+    ``sbt_regimes``: :func:`sbt_regimes` with a nonlocal ``hydrodynamics``, only then)."""
     out: dict = {"segments": 50, "torque": 1.0, "window": window, "load_average": load_average()}
     sim = steady_state(1.0)
     t0, start, frame0 = sim.t, sim.state(), sim.model.omega_frame
@@ -102,6 +107,8 @@ def bench(window: float = 0.2, quick: bool = False, with_regimes: bool = True,
                        "steps": steps}
     if with_regimes:
         out["regimes"] = regimes(quick, solver=solver, peer=peer)
+    if hydrodynamics is not None and not hydrodynamics.is_local:
+        out["sbt_regimes"] = sbt_regimes(quick, hydrodynamics=hydrodynamics)
     if with_work_precision:
         out["work_precision"] = work_precision(quick, peer=peer, **(
             {"names": tuple(work_precision_names)} if work_precision_names else {}))
@@ -140,22 +147,26 @@ def _solver(kind: str, value: float | None = None) -> SolverOptions:
     return SolverOptions(method=method, **{setting: value})
 
 
-def run_regime(name: str, solver: SolverOptions | None = None, window: float | None = None) -> dict:
+def run_regime(name: str, solver: SolverOptions | None = None, window: float | None = None,
+               hydrodynamics=None) -> dict:
     """One run of regime ``name`` of :data:`REGIMES` from rest: wall time of the run itself,
-    steps, steps per motor revolution and the time averages (thrust, ω, χ; last half)."""
+    steps, steps per motor revolution and the time averages (thrust, ω, χ; last half);
+    ``hydrodynamics`` the mobility (default RFT); ``cpu_seconds`` the process time of the run."""
     torque, w, boundary, thermal = REGIMES[name]
     w = w if window is None else window
     if solver is None:
         solver = SolverOptions(method="implicit") if thermal else SolverOptions()
     sim = Simulator(Params(), Motor(torque), boundary, thermal=thermal, seed=1 if thermal else None,
-                    solver=solver)
+                    solver=solver, hydrodynamics=hydrodynamics)
     # the same records for every solver: the averages compared sample the same instants
     save = SAVE_GRID * max(1, round(w / RECORDS / SAVE_GRID))
+    cpu0 = time.process_time()
     tr, wall, steps = _timed(sim, w, save)
+    cpu = time.process_time() - cpu0
     s = summarize(tr.t, tr.thrust, tr.motor_angle, tr.positions, tr.energy,
                   tr.meta.get("helix_radius", 0.2))
     revolutions = abs(tr.motor_angle[-1] - tr.motor_angle[0]) / (2 * np.pi)
-    return {"method": sim.solver.method, "window": w, "wall_seconds": wall,
+    return {"method": sim.solver.method, "window": w, "wall_seconds": wall, "cpu_seconds": cpu,
             "wall_per_simulated_second": wall / w,
             "steps": steps, "steps_per_revolution": steps / max(revolutions, 1e-12),
             "thrust": s.thrust_mean, "omega": s.omega_mean, "chi": s.chi_mean}
@@ -216,6 +227,41 @@ def regimes(quick: bool = False, names=None, solver: SolverOptions | None = None
             row.update(peer_columns(name, row["wall_per_simulated_second"], quick))
         else:
             row.update(peer_ratio=None, peer_reason=peer_reason)
+        out[name] = row
+    return out
+
+
+#: the regimes of :func:`sbt_regimes`, each run with RFT and with the nonlocal mobility
+SBT_REGIMES = ("from_rest_M1", "buckled_M1.6", "load_sphere_M2", "free_swimmer_M2")
+
+
+def sbt_regimes(quick: bool = False, names=SBT_REGIMES, hydrodynamics=None,
+                reference: bool = True) -> dict:
+    """:data:`SBT_REGIMES` with RFT and with ``hydrodynamics`` (default: SBT, default
+    ``refresh``), each at its default method (the Numba BDF for both), one right after the
+    other: per model wall and CPU seconds, steps and time averages, and ``cpu_ratio`` /
+    ``wall_ratio`` SBT over RFT (docs/hydrodynamics.md, "Cost against RFT"; the target is
+    ≤ 3). ``reference``: also the error of SBT's time averages (:func:`average_errors`)
+    against the unfrozen splitting (``refresh`` 0, ΔM rebuilt at every right-hand side;
+    CVODE at rtol 1e-8), the accuracy of freezing. ``quick``: windows a quarter as long."""
+    from .hydro.options import Hydrodynamics
+
+    hd = hydrodynamics or Hydrodynamics("sbt")
+    for name in names:  # compile (untimed)
+        for h in (None, hd):
+            run_regime(name, window=2e-4, hydrodynamics=h)
+    out = {}
+    for name in names:
+        w = REGIMES[name][1] * (0.25 if quick else 1.0)
+        rft, sbt = run_regime(name, window=w), run_regime(name, window=w, hydrodynamics=hd)
+        row = {"torque": REGIMES[name][0], "window": w, "model": hd.model, "refresh": hd.refresh,
+               "rft": rft, "sbt": sbt,
+               "cpu_ratio": sbt["cpu_seconds"] / max(rft["cpu_seconds"], 1e-12),
+               "wall_ratio": sbt["wall_seconds"] / max(rft["wall_seconds"], 1e-12)}
+        if reference and hd.refresh > 0:
+            ref = run_regime(name, _solver("cvode", 1e-8), w,
+                             hydrodynamics=Hydrodynamics(hd.model, refresh=0.0))
+            row.update(average_errors(sbt, ref), reference_cpu_seconds=ref["cpu_seconds"])
         out[name] = row
     return out
 

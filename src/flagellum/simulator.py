@@ -165,7 +165,7 @@ def check_setup(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynam
 
 def resolve_method(solver: SolverOptions, thermal: bool, hydrodynamics: Hydrodynamics,
                    boundary: Boundary | None, end_load: EndLoad | None,
-                   polymorphism: Polymorphism | None) -> SolverOptions:
+                   polymorphism: Polymorphism | None, segments: int = 50) -> SolverOptions:
     """``solver`` with its method set: the run's :func:`~flagellum.integrate.default_method`
     where ``solver.method`` is None."""
     if solver.method is not None:
@@ -174,7 +174,8 @@ def resolve_method(solver: SolverOptions, thermal: bool, hydrodynamics: Hydrodyn
         thermal=thermal, local=hydrodynamics.is_local,
         cell=boundary is not None and boundary.is_cell,
         moving_trap=end_load is not None and end_load.active and end_load.pull_rate != 0.0,
-        polymorphic=polymorphism is not None))
+        polymorphic=polymorphism is not None,
+        unfrozen=not hydrodynamics.is_local and hydrodynamics.refresh == 0.0, segments=segments))
 
 
 def _rotate_z(v: np.ndarray, angle: float) -> np.ndarray:
@@ -224,7 +225,8 @@ class Simulator:
         self.motor = motor or Motor()
         self.boundary = boundary or Boundary()
         self.solver = resolve_method(solver or SolverOptions(), thermal, self.hydrodynamics,
-                                     self.boundary, self.end_load, polymorphism)
+                                     self.boundary, self.end_load, polymorphism,
+                                     self.params.filament.n_segments)
         self.thermal = bool(thermal)
         check_setup(self.params, self.solver, self.hydrodynamics, self.thermal, seed, self.boundary)
         self.seed = int(seed) if seed is not None else 0

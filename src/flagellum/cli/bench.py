@@ -30,12 +30,18 @@ from ._output import emit_json, emit_table, fmt
               help="also run PyElastica on each regime (and over Δt in --plot) from its own "
                    "environment ($FLAGELLUM_PEER_ENV, default /tmp/pyel; made by "
                    "benchmarks/bench_pyelastica.py --install): peer_ratio per regime")
+@click.option("--sbt-regimes/--no-sbt-regimes", "with_sbt", default=False, show_default=True,
+              help="also the runs from rest at M = 1, 1.6, load sphere and free swimmer with the "
+                   "nonlocal mobility (--hydrodynamics sbt), their cost relative to RFT and the "
+                   "error of the frozen splitting against the unfrozen one")
 @click.option("--json", "as_json", is_flag=True, help="print one JSON object")
-def bench(quick, window, with_regimes, plot, plot_regimes, method, rtol, peer, as_json):
+def bench(quick, window, with_regimes, plot, plot_regimes, method, rtol, peer, with_sbt, as_json):
     """Speed benchmarks: wall seconds per simulated second, scaling with N, Brownian, and the
     same-work regimes (wall per simulated s, steps, steps per revolution, error of the
-    time averages)."""
+    time averages); with --sbt-regimes also the regimes with the nonlocal mobility and their
+    cost relative to RFT."""
     from ..bench import REGIMES, bench as run_bench, plot_work_precision
+    from ..hydro.options import Hydrodynamics
     from ..params import check_choice, check_range
     from ..simulator import SolverOptions
 
@@ -46,13 +52,13 @@ def bench(quick, window, with_regimes, plot, plot_regimes, method, rtol, peer, a
     out = run_bench(check_range("window", window, 1e-3, 10.0, lo_open=False), quick=quick, with_regimes=with_regimes,
                     with_work_precision=plot is not None, work_precision_names=plot_regimes,
                     solver=SolverOptions(method=method, **({} if rtol is None else {"rtol": rtol})),
-                    peer=peer)
+                    peer=peer, hydrodynamics=Hydrodynamics("sbt") if with_sbt else None)
     if plot is not None:
         plot_work_precision(out["work_precision"], plot)
     if as_json:
         emit_json(out)
         return
-    skip = ("scaling", "regimes", "work_precision")
+    skip = ("scaling", "regimes", "work_precision", "sbt_regimes")
     emit_table({k: v for k, v in out.items() if k not in skip}, "flagellum bench")
     for row in out["scaling"]:
         click.echo("  " + ", ".join(f"{k} {fmt(v)}" for k, v in row.items()))
@@ -61,6 +67,9 @@ def bench(quick, window, with_regimes, plot, plot_regimes, method, rtol, peer, a
             f"{k} {fmt(row[k])}" for k in ("wall_per_simulated_second", "steps",
                                            "steps_per_revolution", "error", "peer_ratio")
             if row.get(k) is not None))
+    for name, row in out.get("sbt_regimes", {}).items():
+        click.echo(f"  {name} sbt/rft: cpu ×{fmt(row['cpu_ratio'])}, wall ×{fmt(row['wall_ratio'])}"
+                   + (f", error {fmt(row['error'])}" if "error" in row else ""))
     for name, d in out.get("work_precision", {}).items():
         for r in d["runs"]:
             setting = f"dt {fmt(r['dt'])}" if "dt" in r else f"rtol {fmt(r['rtol'])}"

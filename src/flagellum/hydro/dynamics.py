@@ -157,26 +157,43 @@ def effective_mobility(x, radius, viscosity, anchor, sphere_radius=0.0) -> np.nd
     turn (the paper's load sphere), a free swimmer's sphere turns freely (torque-free: its
     rotation from the filament's vorticity)."""
     n1 = len(x)
+    m = 3 * n1
+    free = moving_components(anchor, n1)
     if anchor != L.FIXED and sphere_radius > 0:
         big = grand_mobility(x, radius, viscosity, sphere_centre(x, sphere_radius), sphere_radius)
-        m = 3 * n1 + 3
-        if anchor == L.FREE:  # torque-free: its rotation leaves the resistance problem
-            R = np.linalg.inv(big[:m, :m])
-        else:  # held against rotation: Ω = 0, the reaction torque acts on the fluid
-            R = np.linalg.inv(big)[:m, :m]
-        R = _attach(R, n1)
-        free = moving_components(anchor, n1)
-        out = np.zeros((3 * n1, 3 * n1))
-        out[np.ix_(free, free)] = np.linalg.inv(R[np.ix_(free, free)])
-        return out
+        # constraints C u = 0 on (U_0 … U_n, V, Ω): the sphere moves with bead 0 (V = U_0),
+        # bead 0's fixed components, and on a load sphere Ω = 0 (its reaction torque acts on
+        # the fluid); a free swimmer's sphere is torque-free (Ω unconstrained)
+        rows = [np.eye(3, m + 6, m) - np.eye(3, m + 6, 0)]
+        if anchor != L.FREE:
+            rows.append(np.eye(3, m + 6, m + 3))
+        fixed = np.flatnonzero(~free)
+        if len(fixed):
+            rows.append(np.eye(m + 6)[fixed])
+        return _constrained(big, np.vstack(rows), m, fixed)
     M = sbt.mobility(x, radius, viscosity)
-    # no sphere: ((M⁻¹)_ff)⁻¹ is the Schur complement M_ff − M_fc M_cc⁻¹ M_cf of the
-    # constrained components c (O(N²) instead of two dense inverses)
-    k = int(np.count_nonzero(~moving_components(anchor, n1)))  # the first k components
+    # no sphere: the constraints fix the first k components, and _constrained is the Schur
+    # complement M_ff − M_fc M_cc⁻¹ M_cf, here from the blocks directly
+    k = int(np.count_nonzero(~free))
     if k == 0:
         return M
-    out = np.zeros((3 * n1, 3 * n1))
+    out = np.zeros((m, m))
     out[k:, k:] = M[k:, k:] - M[k:, :k] @ np.linalg.solve(M[:k, :k], M[:k, k:])
+    return out
+
+
+def _constrained(big: np.ndarray, C: np.ndarray, m: int, fixed: np.ndarray) -> np.ndarray:
+    """The first m rows and columns of the mobility under the constraints C u = 0, the
+    constraint forces Cᵀλ acting on the fluid: M − M Cᵀ (C M Cᵀ)⁻¹ C M. This is the
+    resistance form P (Pᵀ M⁻¹ P)⁻¹ Pᵀ for any P whose range is the null space of C (both
+    vanish on Cᵀ and reproduce P on M⁻¹P), in O(N²) instead of dense inverses; for a
+    constraint that only fixes components it is the Schur complement M_ff − M_fc M_cc⁻¹ M_cf.
+    ``fixed``: the bead components C fixes, whose rows and columns are set to zero."""
+    mc = big[:m] @ C.T  # (m, k)
+    cm = C @ big[:, :m]  # (k, m)
+    out = big[:m, :m] - mc @ np.linalg.solve(C @ big @ C.T, cm)
+    out[fixed, :] = 0.0  # exactly zero (roundoff of the product otherwise)
+    out[:, fixed] = 0.0
     return out
 
 
@@ -271,8 +288,9 @@ def rigid_fit(x_ref, x, anchor, axial=None):
     those under which the anchored problem (and so ΔM) is invariant — about e_z only on a load
     sphere (``AXIAL``) or with ``axial`` (a free swimmer's sphere, which sits at x_0 + a e_z),
     any for ``FIXED`` and ``FREE`` (Kabsch's least-squares fit; a cell body's points are part
-    of x) — and the largest bead distance left, |x − x_0 − R(x_ref − x_ref,0)| (``FREE``:
-    relative to bead 0, which carries the body)."""
+    of x) — and the largest bead distance left, |x − x_0 − R(x_ref − x_ref,0)|: relative to
+    bead 0, since the problem is invariant under its translation too where bead 0 moves (a
+    free swimmer's body, a load sphere along z; ``FIXED``: also its own displacement)."""
     a, b = x_ref - x_ref[0], x - x[0]
     if anchor == L.AXIAL if axial is None else axial:
         s = np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
@@ -285,7 +303,7 @@ def rigid_fit(x_ref, x, anchor, axial=None):
         d = np.sign(np.linalg.det(u @ vt))
         R = u @ np.diag([1.0, 1.0, d]) @ vt
     resid = np.max(np.abs(b - a @ R.T))
-    if anchor != L.FREE:
+    if anchor == L.FIXED:
         resid = max(resid, float(np.max(np.abs(x[0] - x_ref[0]))))
     return R, resid
 
@@ -293,9 +311,23 @@ def rigid_fit(x_ref, x, anchor, axial=None):
 def rotate_correction(dm, R):
     """ΔM of the beads turned by R (about bead 0): each 3×3 block D_ij becomes R D_ij Rᵀ
     (the mobility of a rotated configuration, by the isotropy of Stokes flow)."""
-    n1 = dm.shape[0] // 3
-    d = dm.reshape(n1, 3, n1, 3)
-    return np.einsum("ab,ibjc,dc->iajd", R, d, R, optimize=True).reshape(dm.shape)
+    out = np.empty_like(dm)
+    _rotate_blocks(np.ascontiguousarray(dm, dtype=float), np.asarray(R, float), out)
+    return out
+
+
+@njit(cache=True)
+def _rotate_blocks(dm, R, out):
+    m = dm.shape[0]
+    tmp = np.empty((3, 3))
+    for i in range(0, m, 3):
+        for j in range(0, m, 3):
+            for a in range(3):  # tmp = R D_ij
+                for c in range(3):
+                    tmp[a, c] = R[a, 0] * dm[i, j + c] + R[a, 1] * dm[i + 1, j + c] + R[a, 2] * dm[i + 2, j + c]
+            for a in range(3):  # out_ij = tmp Rᵀ
+                for d in range(3):
+                    out[i + a, j + d] = tmp[a, 0] * R[d, 0] + tmp[a, 1] * R[d, 1] + tmp[a, 2] * R[d, 2]
 
 
 def correction(x, h, gammas, anchor, zeta, radius, viscosity, sphere_radius=0.0,

@@ -78,8 +78,12 @@ def centreline_nodes(positions):
     bonds = np.vstack([d[:1], d]) / np.r_[lengths[:1], lengths][:, None]
     n = len(d)
     t = np.array([bead_node(bonds, i, n)[:3] for i in range(n + 1)])
-    w = 0.5 * (np.r_[0.0, lengths] + np.r_[lengths, 0.0])
-    return t, w
+    return t, _bead_lengths(lengths)
+
+
+def _bead_lengths(lengths: np.ndarray) -> np.ndarray:
+    """The bead lengths (ℓ_{k−1} + ℓ_k)/2 (the ends: half their one bond) from the bonds'."""
+    return 0.5 * (np.r_[0.0, lengths] + np.r_[lengths, 0.0])
 
 
 @njit(cache=True, error_model="numpy")  # no fastmath: the closed forms are checked to 1e-11
@@ -164,16 +168,18 @@ def mobility(positions, radius, viscosity, weights=None, cutoff=None) -> np.ndar
     if cutoff is not None and not cutoff > 0:
         raise ParameterError("cutoff", cutoff, "> 0 (an arc length) or None")
     eps = EPS_PER_RADIUS * _segment_radius(radius, n)
-    K = np.zeros((n + 1, n + 1, 3, 3))
-    _segment_kernel(x, eps, -1.0 if cutoff is None else float(cutoff), K)
     if weights is None:
-        _, w = centreline_nodes(x)
+        w = _bead_lengths(np.linalg.norm(np.diff(x, axis=0), axis=1))
     else:
         w = np.asarray(weights, float)
         if w.shape != (n + 1,) or np.any(~(w > 0)):
             raise ParameterError("weights", f"shape {w.shape}", "n+1 lengths > 0")
-    K /= (8 * math.pi * viscosity) * w[None, :, None, None]
-    return K.transpose(0, 2, 1, 3).reshape(3 * (n + 1), 3 * (n + 1))
+    M = np.zeros((3 * (n + 1), 3 * (n + 1)))
+    # the kernel's blocks K[i, k] written straight into rows 3i…, columns 3k… of M
+    _segment_kernel(x, eps, -1.0 if cutoff is None else float(cutoff),
+                    M.reshape(n + 1, 3, n + 1, 3).transpose(0, 2, 1, 3))
+    M /= np.repeat((8 * math.pi * viscosity) * w, 3)[None, :]
+    return M
 
 
 def rigid_motion_matrix(positions, origin=(0.0, 0.0, 0.0)) -> np.ndarray:

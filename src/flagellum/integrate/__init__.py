@@ -17,20 +17,33 @@ ATOL_PER_RTOL = 1e-2
 MAX_STEPS_PER_ADVANCE = 5000
 
 
+#: the largest N at which the Numba BDF is the default with a frozen nonlocal mobility: its
+#: Newton matrix (the banded local operator plus the near field of ΔM) converged at N = 50
+#: and 100, but at N = 200 the step collapsed (24 863 steps over 0.02 s at M = 1, against
+#: about 470 for CVODE, whose GMRES takes the full right-hand side; docs/hydrodynamics.md)
+BDF_NONLOCAL_MAX_SEGMENTS = 100
+
+
 def default_method(*, thermal: bool = False, local: bool = True, cell: bool = False,
-                   moving_trap: bool = False, polymorphic: bool = False) -> str:
+                   moving_trap: bool = False, polymorphic: bool = False,
+                   unfrozen: bool = False, segments: int = 50) -> str:
     """The integrator of a run that names none (``SolverOptions(method=None)``).
 
     ``"implicit"`` with thermal noise (the only scheme for it); ``"bdf"`` (the Numba BDF) for
-    the deterministic runs it supports and was measured on — the local mobility (RFT), no cell
-    body, no moving trap, a single-state filament — where at equal rtol it is 1.4–2.1× faster
-    than CVODE with an equal or smaller error of the time-averaged thrust, ω and χ
-    (docs/benchmarks.md, "The Numba BDF against CVODE"); ``"cvode"`` otherwise (a nonlocal
-    mobility or a cell body couples outside the BDF's band; a moving trap's centre is set
-    outside the compiled loop; polymorphic runs were not measured).
+    the deterministic runs it supports and was measured on — the local mobility (RFT), or the
+    frozen nonlocal one (SBT) at ``segments`` ≤ :data:`BDF_NONLOCAL_MAX_SEGMENTS`, with no
+    cell body, no moving trap, a single-state filament — where at equal rtol it is 1.4–2.1×
+    faster than CVODE with RFT (docs/benchmarks.md, "The Numba BDF against CVODE") and
+    1.5–1.8× with SBT at N = 50, with the same time averages to ≲ 2e-5
+    (docs/hydrodynamics.md, "Cost against RFT"); ``"cvode"`` otherwise (a cell body couples
+    outside the BDF's band; a nonlocal mobility rebuilt at every right-hand side,
+    ``unfrozen``, and a moving trap's centre are set outside the compiled loop; polymorphic
+    runs were not measured).
     """
     if thermal:
         return "implicit"
-    if local and not cell and not moving_trap and not polymorphic:
-        return "bdf"
-    return "cvode"
+    if cell or moving_trap or polymorphic:
+        return "cvode"
+    if not local and (unfrozen or segments > BDF_NONLOCAL_MAX_SEGMENTS):
+        return "cvode"
+    return "bdf"

@@ -26,8 +26,8 @@ from numba import njit
 from ..errors import ParameterError, SimulationError
 from . import MAX_STEPS_PER_ADVANCE
 from ..rod import kernels as K
-from ..rod.model import JACOBIAN_BAND
 from .banded import band_factor, band_solve
+from .frozen import FrozenMobility, ramp_mobility
 
 MAX_ORDER = 5
 NEWTON_MAXITER = 3  #: CVODE's maxcor
@@ -81,7 +81,13 @@ def drive_value(t, kind, value, ramp, sched_t, sched_v, switches):
 
 @njit(cache=True)
 def _fun(t, y, out, ka, drive, general):
-    ka[0][K.P_TORQUE] = drive_value(t, *drive)
+    """The rod's right-hand side at (t, y); ``drive`` is the pair (the motor's
+    :func:`drive_table`, the ramp of a frozen nonlocal ΔM: the arrays of
+    :class:`~flagellum.integrate.frozen.FrozenMobility`), the inputs that depend on t;
+    ``general`` as in :func:`~flagellum.rod.kernels.model_rhs`."""
+    table, ramp = drive
+    ka[0][K.P_TORQUE] = drive_value(t, *table)
+    ramp_mobility(t, ka[-1][-1], *ramp)
     K.model_rhs(general, y, out, *ka)
     for i in range(out.shape[0]):
         if not math.isfinite(out[i]):
@@ -373,9 +379,16 @@ class BdfStepper:
     docstring). Satisfies :class:`flagellum.integrate.base.Stepper` (adaptive, deterministic).
 
     ``rtol``/``atol``: the weighted RMS norm of the local error estimate is kept ≤ 1 with
-    weights 1/(atol + rtol |y|), as CVODE's. Only the local mobility (banded Jacobian):
-    a nonlocal one is refused (use ``method='cvode'``). ``max_num_steps``: the limit of
-    internal steps per :meth:`advance`.
+    weights 1/(atol + rtol |y|), as CVODE's. ``max_num_steps``: the limit of internal steps
+    per :meth:`advance`.
+
+    A frozen nonlocal mobility (``hydrodynamics.refresh`` > 0) is checked at sub-targets and
+    ramped between builds inside the compiled right-hand side
+    (:class:`~flagellum.integrate.frozen.FrozenMobility`); Newton's iteration matrix is then
+    the banded one of the local operator plus the near field of ΔM, the operator CVODE
+    preconditions its GMRES with (docs/hydrodynamics.md). Refused: a cell body (it couples
+    outside the band) and the unfrozen ``refresh`` = 0, which rebuilds ΔM in
+    :meth:`RodModel.rhs <flagellum.rod.model.RodModel.rhs>`, a call the compiled loop skips.
     """
 
     fixed_step = None
@@ -383,16 +396,20 @@ class BdfStepper:
 
     def __init__(self, model, t0: float, y0: np.ndarray, rtol: float = 1e-6,
                  atol: float = 1e-8, max_num_steps: int = MAX_STEPS_PER_ADVANCE):
-        if model.jacobian_band != JACOBIAN_BAND:  # a nonlocal mobility or a cell body
-            raise ParameterError("method", "bdf", "'cvode' with a nonlocal mobility or a cell "
-                                 "body (the BDF stepper needs the rod's banded Jacobian)")
+        if model.cell:
+            raise ParameterError("method", "bdf", "'cvode' with a cell body (the BDF stepper "
+                                 "needs the rod's banded Jacobian)")
+        if not model.hydrodynamics.is_local and model.hydrodynamics.refresh == 0:
+            raise ParameterError("method", "bdf", "'cvode' with a nonlocal mobility rebuilt at "
+                                 "every right-hand side (--hydro-refresh 0)")
         if model.end_load is not None and model.end_load.pull_rate != 0.0:
             # the trap's centre moves with t, set by RodModel.rhs, which the compiled loop skips
             raise ParameterError("method", "bdf", "'cvode' with a moving trap (--pull-rate)")
         self.model = model
         self.rtol, self.atol = float(rtol), float(atol)
         self.max_num_steps = int(max_num_steps)
-        self._kl, self._ku = JACOBIAN_BAND
+        self._kl, self._ku = model.jacobian_band  # wider with a nonlocal mobility
+        self._frozen = FrozenMobility(model)
         n = len(y0)
         self._D = np.zeros((MAX_ORDER + 3, n))
         self._st = np.zeros(6)
@@ -446,10 +463,19 @@ class BdfStepper:
         self.t = float(t0)
         self.y = np.array(y0, float)
         self._ist[I_STARTED] = 0  # started lazily: the first advance sees the current rhs
+        self._frozen.reset(t0)
 
     def advance(self, t: float) -> np.ndarray:
+        if not self._frozen.active:
+            return self._advance(t)
+        # the compiled steps are not stopped at the sub-targets: it interpolates, as CVODE
+        self._frozen.advance(self.t, self.y, t,
+                             lambda tn: (True, self._advance(tn), None, float(self._st[S_T])))
+        return self.y
+
+    def _advance(self, t: float) -> np.ndarray:
         m = self.model
-        drive = self._drive_for(float(t))
+        drive = (self._drive_for(float(t)), self._frozen.arrays)
         ka = m.kernel_arrays
         if self._ist[I_STARTED] == 0:
             if not bdf_start(self.t, self.y, self._D, self._st, self._ist, ka, drive,

@@ -29,9 +29,9 @@ from numba import njit
 from ..errors import SimulationError
 from . import MAX_STEPS_PER_ADVANCE
 from .banded import band_factor, band_solve
+from .frozen import FrozenMobility
 from ..rod import kernels as K
 from ..rod.model import JACOBIAN_BAND
-from ..rod.model import positions as m_positions
 
 KL, KU = JACOBIAN_BAND
 
@@ -176,6 +176,7 @@ class CvodeStepper:
         self._t_max = -np.inf
         self._output = SundialsOutput()
         self._warned: set[str] = set()
+        self._frozen = FrozenMobility(model, smooth=self.smooth_refresh)
         self.reset(t0, y0)
 
     @classmethod
@@ -189,14 +190,7 @@ class CvodeStepper:
         if t > self._t_max:  # a new step attempt (CVODE does not expose its counters here)
             self._t_max = t
             self.n_steps += 1
-        if self._ramp is not None:  # ΔM(t) between two builds: continuous in time
-            frm, delta, t0, tau = self._ramp
-            s = min(1.0, max(0.0, (t - t0) / tau))
-            if s != self._ramp_s:
-                dm = self.model.kernel_arrays[-1][-1]
-                np.multiply(delta, s, out=dm)
-                dm += frm
-                self._ramp_s = s
+        self._frozen.apply(t)  # ΔM(t) between two builds: continuous in time
         self._y[:] = y
         self.model.rhs(t, self._y, out=yp)
 
@@ -237,31 +231,10 @@ class CvodeStepper:
         zvec[:] = rvec
         band_solve(self._pab, self._kl, self._ku, self._ipiv, zvec, self._pivoted)
 
-    def _check_mobility(self, t, y):
-        """Rebuild (or turn) the frozen ΔM if the beads of y have moved too far; with
-        :attr:`smooth_refresh` the kernel's ΔM then goes over linearly in time from its value
-        at t to the new one, over the time the last interval between builds took, so that
-        the right-hand side has no jump (a jump costs CVODE a run of shortened steps)."""
-        m = self.model
-        dm = m.kernel_arrays[-1][-1]
-        if self._ramp is not None:
-            frm, delta, t0, tau = self._ramp
-            dm[:] = frm + min(1.0, max(0.0, (t - t0) / tau)) * delta
-        current = dm.copy() if self.smooth_refresh else None
-        if not m.refresh_mobility(y):
-            return
-        if self.smooth_refresh and self._last_build is not None and t > self._last_build:
-            self._ramp = (current, dm - current, t, t - self._last_build)
-            self._ramp_s = -1.0
-        else:
-            self._ramp = None
-        self._last_build = t
-
     def reset(self, t0: float, y0: np.ndarray) -> None:
         self.t = float(t0)
         self.y = np.array(y0, float)
-        self._ramp, self._ramp_s, self._last_build = None, -1.0, float(t0)
-        self._sub = 0.0  # (a resumed run starts here too: nothing carried over)
+        self._frozen.reset(t0)  # (a resumed run starts here too: nothing carried over)
         if self.model.jacobian_band == (KL, KU):
             linear = dict(jacfn=self._jac, linsolver="band", lband=self._kl, uband=self._ku)
         else:
@@ -273,35 +246,17 @@ class CvodeStepper:
                                    max_step=self.max_step, max_num_steps=self.max_num_steps)
         self._solver.init_step(self.t, self.y)
 
+    def _step_to(self, t: float):
+        res = self._solver.step(t)
+        # (CVODE's own time: the latest right-hand side it asked for, ≥ t as it interpolates)
+        return res.success and bool(np.all(np.isfinite(res.y))), res.y, res, self._t_max
+
     def advance(self, t: float) -> np.ndarray:
-        m = self.model
-        frozen = m.iprm[K.I_HYDRO] != K.HYDRO_LOCAL and m.hydrodynamics.refresh > 0
         with self._output.catch() as said:  # SUNDIALS' own lines: folded into ours
-            if not frozen:
+            if not self._frozen.active:
                 res = self._solver.step(t)
-            else:  # the frozen ΔM is checked (and rebuilt) at sub-targets that the fastest
-                # bead takes about half the refresh distance to reach (CVODE's steps are not
-                # stopped there: it interpolates)
-                tc, xc = self.t, m_positions(self.y)
-                if self._sub <= 0:  # first call: from the bead speeds now
-                    v = float(np.max(np.abs(m_positions(m.rhs(tc, self.y)))))
-                    self._sub = 0.5 * m.hydrodynamics.refresh / v if v > 0 else t - tc
-                while True:
-                    tn = min(t, tc + self._sub)
-                    if t - tn < 0.25 * self._sub:
-                        tn = t
-                    res = self._solver.step(tn)
-                    if not res.success or not np.all(np.isfinite(res.y)):
-                        break
-                    xn = m_positions(res.y)
-                    moved = float(np.max(np.abs(xn - xc)))
-                    if moved > 0:
-                        grow = min(2.0, max(0.25, 0.5 * m.hydrodynamics.refresh / moved))
-                        self._sub = grow * (tn - tc)
-                    self._check_mobility(tn, res.y)
-                    tc, xc = tn, xn
-                    if tn >= t:
-                        break
+            else:  # CVODE's steps are not stopped at the sub-targets: it interpolates
+                res = self._frozen.advance(self.t, self.y, t, self._step_to)
         if not res.success or not np.all(np.isfinite(res.y)):
             detail = said.summary()
             raise SimulationError(f"CVODE failed at t = {res.t:.6g} s: {res.message}"

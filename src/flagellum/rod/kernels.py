@@ -261,6 +261,12 @@ def workspace(n, nonlocal_size=0):
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def _add_correction(DM, DR, V, n, width):
     """V += ΔM F with F = −DR, from the blocks of ΔM between beads at most ``width`` apart."""
+    if width >= n:  # all of ΔM: one dense matrix–vector product (BLAS)
+        u = np.dot(DM, DR.reshape(3 * (n + 1)))
+        for i in range(n + 1):
+            for a in range(3):
+                V[i, a] -= u[3 * i + a]
+        return
     for i in range(n + 1):
         lo, hi = max(0, i - width), min(n + 1, i + width + 1)
         for a in range(3):

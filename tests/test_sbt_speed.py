@@ -1,0 +1,101 @@
+"""The fast paths of the nonlocal mobility (docs/hydrodynamics.md, "Cost"): the constrained
+mobility without dense inverses, the turned ΔM, the ramp between builds, and the Numba BDF
+with the frozen ΔM against CVODE."""
+
+import numpy as np
+import pytest
+
+from flagellum.helix import discrete_helix
+from flagellum.hydro import dynamics as D
+from flagellum.hydro import local as L
+from flagellum.hydro.options import Hydrodynamics
+from flagellum.integrate.frozen import R_ACTIVE, R_S, ramp_mobility
+from flagellum.motor import Boundary, Motor
+from flagellum.params import Filament, Params
+from flagellum.simulator import Simulator, SolverOptions
+
+SHORT = Params.from_flat({"length": 2.0})
+
+
+def _resistance_form(big, n1, rotation_held):
+    """The constrained mobility the textbook way (independent of hydro.dynamics' Lagrange
+    form): invert the grand mobility (Ω = 0 held: the bead–sphere block of the inverse;
+    torque-free: the inverse of the bead–sphere block), attach the sphere to bead 0
+    (V = U_0: Pᵀ R P), remove bead 0's constrained components and invert back."""
+    m = 3 * n1
+    R = np.linalg.inv(big)[:m + 3, :m + 3] if rotation_held else np.linalg.inv(big[:m + 3, :m + 3])
+    P = np.zeros((m + 3, m))
+    P[:m] = np.eye(m)
+    P[m:, :3] = np.eye(3)
+    R = P.T @ R @ P
+    free = np.ones(m, bool)
+    if rotation_held:
+        free[:2] = False
+    out = np.zeros((m, m))
+    out[np.ix_(free, free)] = np.linalg.inv(R[np.ix_(free, free)])
+    return out
+
+
+@pytest.mark.parametrize("anchor, a", [(L.AXIAL, 1.0), (L.FREE, 0.5)])
+def test_constrained_mobility_with_a_sphere_is_the_resistance_form(anchor, a):
+    x = discrete_helix(Filament(length=4.0)).positions
+    x = x + np.random.default_rng(2).normal(0.0, 0.01, x.shape)
+    big = D.grand_mobility(x, 0.01, 1e-3, D.sphere_centre(x, a), a)
+    want = _resistance_form(big, len(x), rotation_held=anchor == L.AXIAL)
+    got = D.effective_mobility(x, 0.01, 1e-3, anchor, a)
+    assert np.abs(got - want).max() < 1e-9 * np.abs(want).max()
+    if anchor == L.AXIAL:
+        assert np.all(got[:2] == 0) and np.all(got[:, :2] == 0)
+
+
+def test_turned_correction_is_r_d_rt_per_block():
+    rng = np.random.default_rng(3)
+    dm = rng.normal(size=(12, 12))
+    R = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    want = np.kron(np.eye(4), R) @ dm @ np.kron(np.eye(4), R).T
+    assert np.allclose(D.rotate_correction(dm, R), want, rtol=0, atol=1e-14)
+
+
+def test_ramp_goes_linearly_from_the_old_to_the_new_correction():
+    frm, new = np.ones((3, 3)), 3.0 * np.ones((3, 3))
+    dm = np.zeros((3, 3))
+    rp = np.array([1.0, 2.0, -1.0, 1.0])  # from t = 1 over 2 s
+    for t, s in ((0.5, 0.0), (2.0, 0.5), (3.5, 1.0)):
+        ramp_mobility(t, dm, frm, new - frm, rp)
+        assert np.all(dm == frm + s * (new - frm)) and rp[R_S] == s
+    rp[R_ACTIVE] = 0.0
+    ramp_mobility(2.0, dm, frm, new - frm, rp)
+    assert np.all(dm == new)  # no ramp: left as it is
+
+
+@pytest.mark.parametrize("boundary", [Boundary(), Boundary(anchor="sphere", sphere_radius=1.0)])
+def test_bdf_with_the_frozen_mobility_follows_the_unfrozen_splitting(boundary):
+    """The default stepper of an SBT run (the Numba BDF, its ramp compiled in) against the
+    unfrozen splitting (refresh 0: ΔM rebuilt at every right-hand side) on CVODE at a tight
+    tolerance, an independent integrator: time averages of thrust and rotation rate over
+    the second half of a short run from rest (10 ms, still a transient) within 2e-3
+    (measured: thrust 4.4e-4 anchored, 1.4e-3 on the load sphere; SBT and RFT differ by
+    40 %)."""
+    out = {}
+    for method, rtol, refresh in (("bdf", 1e-6, 0.02), ("cvode", 1e-9, 0.0)):
+        sim = Simulator(SHORT, Motor(1.0), boundary, hydrodynamics=Hydrodynamics("sbt", refresh=refresh),
+                        solver=SolverOptions(method=method, rtol=rtol))
+        tr = sim.run(0.01, save_every=1e-4, progress=False)
+        k = len(tr.t) // 2
+        out[method] = (np.mean(tr.thrust[k:]),
+                       (tr.motor_angle[-1] - tr.motor_angle[k]) / (tr.t[-1] - tr.t[k]))
+    assert Simulator(SHORT, hydrodynamics=Hydrodynamics("sbt")).solver.method == "bdf"
+    for got, want in zip(out["bdf"], out["cvode"]):
+        assert got == pytest.approx(want, rel=2e-3)
+
+
+def test_bench_reports_the_sbt_regimes_with_their_ratio_to_rft():
+    """``flagellum bench --sbt-regimes``: each regime with both models, the same work (the
+    RFT run's thrust per torque is the paper's ≈ 0.9 /µm, SBT's ≈ 40 % lower:
+    docs/hydrodynamics.md, "The paper's numbers with RFT and SBT")."""
+    from flagellum.bench import sbt_regimes
+
+    row = sbt_regimes(quick=True, names=("from_rest_M1",), reference=False)["from_rest_M1"]
+    assert row["rft"]["method"] == row["sbt"]["method"] == "bdf"
+    assert row["cpu_ratio"] == pytest.approx(row["sbt"]["cpu_seconds"] / row["rft"]["cpu_seconds"])
+    assert row["sbt"]["thrust"] < 0.7 * row["rft"]["thrust"]

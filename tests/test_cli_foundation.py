@@ -251,8 +251,35 @@ def first_hydrodynamics(monkeypatch):
     monkeypatch.setattr(sweep.PointRun, "from_values", classmethod(spy_point))
 
 
+#: the theory commands take ``--hydrodynamics`` for the effective rod's friction; they build
+#: no RodModel but a :class:`~flagellum.theory.manifold.HelicalRod`
+THEORY_HYDRO_COMMANDS = {
+    "manifold": ["--out", "{tmp}/m", "--workers", "1"], "effective-rigidity": [],
+}
+
+
 def test_hydro_commands_are_all_tested():
-    assert _commands_with("hydrodynamics") == set(HYDRO_COMMANDS)
+    assert _commands_with("hydrodynamics") == set(HYDRO_COMMANDS) | set(THEORY_HYDRO_COMMANDS)
+
+
+@pytest.mark.parametrize("command", sorted(THEORY_HYDRO_COMMANDS))
+def test_hydrodynamics_flag_reaches_the_effective_rod(command, monkeypatch, tmp_path):
+    """``theory … --hydrodynamics sbt`` is the friction model of the effective rod each
+    theory command builds; without it the paper's full-turn RFT coefficients."""
+    from flagellum.hydro.options import Hydrodynamics
+    from flagellum.theory.manifold import HelicalRod
+
+    def spy(cls, params=None, hydrodynamics=None):
+        raise _Built(hydrodynamics)
+
+    monkeypatch.setattr(HelicalRod, "from_params", classmethod(spy))
+    extra = [a.format(tmp=tmp_path) for a in THEORY_HYDRO_COMMANDS[command]]
+    with pytest.raises(_Built) as built:
+        run(["theory", command, "--hydrodynamics", "sbt", *extra])
+    assert built.value.args[0] == Hydrodynamics("sbt")
+    with pytest.raises(_Built) as built:
+        run(["theory", command, *extra])
+    assert built.value.args[0] in (None, Hydrodynamics())
 
 
 @pytest.mark.parametrize("command", sorted(HYDRO_COMMANDS))

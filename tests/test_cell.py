@@ -391,9 +391,11 @@ def test_from_flags_body_radius_means_a_free_cell():
 @pytest.mark.parametrize("kw, name", [
     (dict(thermal=True, seed=0), "thermal"), (dict(solver=SolverOptions(method="implicit")), "method")])
 def test_cell_refuses_what_it_does_not_model(kw, name):
+    """With SBT the cell has neither the fixed-step solver nor thermal noise (with RFT both
+    run: tests below)."""
     p = Params.from_flat({"kT": 4.1e-3}) if kw.get("thermal") else Params()
     with pytest.raises(ParameterError, match=name):
-        Simulator(p, Motor(1.0), BOUNDARIES[0], **kw)
+        Simulator(p, Motor(1.0), BOUNDARIES[0], hydrodynamics=Hydrodynamics("sbt"), **kw)
 
 
 def test_cli_cell_run_and_errors(cli, tmp_path):
@@ -416,7 +418,7 @@ def test_cli_cell_run_and_errors(cli, tmp_path):
     for args, name in ((("--anchor", "fixed", "--body-radius", "1"), "body_radius"),
                        (("--body-aspect", "2"), "body_aspect"),
                        (("--body-radius", "1", "--hydrodynamics", "sbt", "--method", "implicit"), "method"),
-                       (("--body-radius", "1", "--thermal"), "thermal")):
+                       (("--body-radius", "1", "--hydrodynamics", "sbt", "--thermal"), "thermal")):
         code, stdout, err = cli("simulate", *args, "--time", "0.001")
         assert code == 2 and name in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
 

@@ -137,16 +137,17 @@ class State:
 
 def check_cell(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynamics,
                thermal: bool, boundary: Boundary | None) -> None:
-    """What a cell body (``boundary.body_radius``) does not combine with yet: thermal noise
-    (the body's Brownian forces and torques are not implemented) and the fixed-step solver
-    (its Newton iteration takes the banded Jacobian, which leaves out the body's coupling)."""
-    if boundary is None or not boundary.is_cell:
+    """What a cell body (``boundary.body_radius``) does not combine with yet: the fixed-step
+    solver, and so thermal noise, with a nonlocal mobility (``--hydrodynamics sbt``: the
+    coupled mobility's noise and the chord iteration over its band are not implemented)."""
+    if boundary is None or not boundary.is_cell or hydrodynamics.is_local:
         return
     if thermal:
-        raise ParameterError("thermal", True, "off with a cell body (--body-radius): its "
-                             "thermal noise is not implemented")
+        raise ParameterError("thermal", True, "off with a cell body (--body-radius) and "
+                             "--hydrodynamics sbt")
     if solver.method not in (None, "cvode"):
-        raise ParameterError("method", solver.method, "'cvode' with a cell body (--body-radius)")
+        raise ParameterError("method", solver.method, "'cvode' with a cell body (--body-radius) "
+                             "and --hydrodynamics sbt")
 
 
 def check_setup(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynamics,

@@ -152,6 +152,28 @@ def rotvec_rate(p0, p1, p2, w0, w1, w2):
     return w0 - 0.5 * x0 + c * y0, w1 - 0.5 * x1 + c * y1, w2 - 0.5 * x2 + c * y2
 
 
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def rotvec_torque(p0, p1, p2, f0, f1, f2):
+    """The torque J⁻ᵀ(φ) f of the generalized force f conjugate to φ (virtual work
+    T·δΘ = f·δφ with δΘ = J δφ, :func:`rotvec_rate`): J⁻ᵀ(φ) = J⁻¹(−φ)."""
+    return rotvec_rate(-p0, -p1, -p2, f0, f1, f2)
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def haar_gradient(p0, p1, p2):
+    """∇_φ ln det J(φ) = (cot(θ/2) − 2/θ) φ/θ, with det J = 2(1 − cos θ)/θ² the density of
+    the invariant (Haar) measure of SO(3) in the coordinates φ (θ = |φ|): kT times it is
+    the generalized force that makes a flat-space Brownian scheme in φ sample orientations
+    uniformly (series −φ/6 − θ²φ/360 near φ = 0)."""
+    t2 = p0 * p0 + p1 * p1 + p2 * p2
+    if t2 < 1e-4:
+        c = -1.0 / 6.0 - t2 / 360.0
+    else:
+        t = math.sqrt(t2)
+        c = (1.0 / math.tan(0.5 * t) - 2.0 / t) / t
+    return c * p0, c * p1, c * p2
+
+
 def rotvec_matrix(phi) -> np.ndarray:
     """exp([φ]×) of one rotation vector (numpy)."""
     out = np.zeros((3, 3))
@@ -187,5 +209,6 @@ def wrap_rotvec(phi: np.ndarray) -> bool:
 
 
 __all__ = ["BLOCK", "BodyGeometry", "BodyResistance", "body_geometry", "body_resistance",
-           "kernel_block", "matrix_rotvec", "rotation_matrix", "rotvec_matrix", "rotvec_rate",
+           "haar_gradient", "kernel_block", "matrix_rotvec", "rotation_matrix", "rotvec_matrix",
+           "rotvec_rate", "rotvec_torque",
            "spheroid_coefficients", "wrap_rotvec"]

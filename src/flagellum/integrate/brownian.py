@@ -35,6 +35,7 @@ from scipy.linalg import solve_triangular
 
 from .._jit import FASTMATH
 from ..errors import SimulationError
+from ..hydro import body as Bd
 from ..hydro import local as L
 from ..hydro.dynamics import correction, local_mobility, moving_components
 from ..rod import kernels as K
@@ -69,11 +70,39 @@ def thermal_forces(y, prm, iprm, ref_u, ref_e, kT, dt, g_f, g_m, g_h, ws, xi_f, 
         xi_m[i] = c * math.sqrt(L.spin_friction(h, grot)) * g_m[i] if i > 0 else 0.0
     tx, ty, tz = T[0, 0], T[0, 1], T[0, 2]
     gt = g_h[0] * tx + g_h[1] * ty + g_h[2] * tz
-    zt, zp = L.hook_friction(h, gperp, grot, iprm[K.I_HOOK] == K.HOOK_CLAMPED)
+    # on a cell body a clamped hook frame turns with the body, with its full friction
+    # (rod.kernels.cell_motion): its noise then has that covariance too
+    cell = anchor == K.ANCHOR_CELL
+    zt, zp = L.hook_friction(h, gperp, grot, iprm[K.I_HOOK] == K.HOOK_CLAMPED and not cell)
     a, b = c * math.sqrt(zt), c * math.sqrt(zp)
     xi_h[0] = a * gt * tx + b * (g_h[0] - gt * tx)
     xi_h[1] = a * gt * ty + b * (g_h[1] - gt * ty)
     xi_h[2] = a * gt * tz + b * (g_h[2] - gt * tz)
+    if cell:
+        body_noise(y, prm, iprm, c, g_h, xi_h)
+
+
+@njit(cache=True)
+def body_noise(y, prm, iprm, c, g, xi):
+    """xi[3:9] = the cell body's thermal force and torque about its centre, c R^{1/2} g[3:9]
+    with R its resistance (:func:`flagellum.hydro.body.body_resistance`, diagonal along and
+    across the axis: drawn in the body frame, turned with Q), independent of the beads'
+    (bead 0's own friction is its own noise, :func:`thermal_forces`)."""
+    ny = y.shape[0]
+    off = K.P_LAW + 2 * (iprm[K.I_NLAW] + iprm[K.I_NLAW_CW])
+    Q = np.empty((3, 3))
+    Bd.rotation_matrix(y[ny - 3], y[ny - 2], y[ny - 1], Q)
+    for j in range(2):  # j = 0: force (prm[off], prm[off + 1]), 1: torque (prm[off + 2], …)
+        o = 3 + 3 * j
+        gb = np.empty(3)  # g in the body frame, scaled by √R there, turned back
+        for i in range(3):
+            gb[i] = Q[0, i] * g[o] + Q[1, i] * g[o + 1] + Q[2, i] * g[o + 2]
+        ab = gb[0] * prm[off + 4] + gb[1] * prm[off + 5] + gb[2] * prm[off + 6]
+        sa, st = c * math.sqrt(prm[off + 2 * j]), c * math.sqrt(prm[off + 2 * j + 1])
+        for i in range(3):
+            gb[i] = sa * ab * prm[off + 4 + i] + st * (gb[i] - ab * prm[off + 4 + i])
+        for i in range(3):
+            xi[o + i] = Q[i, 0] * gb[0] + Q[i, 1] * gb[1] + Q[i, 2] * gb[2]
 
 
 @njit(cache=True)
@@ -95,16 +124,23 @@ def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, y
     nonlocal mobility, :meth:`ImplicitStepper._nonlocal_increment`)."""
     n1 = iprm[K.I_N] + 1
     ny = y.shape[0]
+    cell = iprm[K.I_ANCHOR] == K.ANCHOR_CELL
     o = 0
     gf = g[o:o + 3 * n1].reshape((n1, 3))
     o += 3 * n1
     gm = g[o:o + n1]
     o += n1
-    gh = g[o:o + 3]
-    o += 3
+    gh = g[o:o + xi_h.shape[0]]  # the hook's 3 (a cell body's: its 6 more)
+    o += xi_h.shape[0]
     thermal_forces(y, prm, iprm, ref_u, ref_e, kT, dt, gf, gm, gh, ws, xi_f, xi_m, xi_h)
     if xi_bead.shape[0] > 0:
         xi_f[:, :] = xi_bead
+    if cell:  # the invariant measure of the orientation: a torque kT ∇ ln det J(φ) (= its
+        # generalized force, J⁻ᵀ φ = φ); with it the stationary density is exp(−E/kT) det J(φ)
+        hx, hy, hz = Bd.haar_gradient(y[ny - 3], y[ny - 2], y[ny - 1])
+        xi_h[6] += kT * hx
+        xi_h[7] += kT * hy
+        xi_h[8] += kT * hz
     _mobility(y, prm, iprm, ref_u, ref_e, ref_m, xi_f, xi_m, xi_h, ws, f1, 0, general)
     for i in range(ny):
         b[i] = dt * f1[i]
@@ -123,12 +159,23 @@ def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, y
             ym[3 + 4 * i + c] -= 0.5 * RFD_DELTA * zf[i, c]
         yp[6 + 4 * i] += 0.5 * RFD_DELTA * zm[i]
         ym[6 + 4 * i] -= 0.5 * RFD_DELTA * zm[i]
+    if cell:  # the orientation: its generalized force W_φ is the torque J⁻ᵀ(φ) W_φ at each
+        # perturbed state (the force conjugate to bead 0 at fixed φ is zf[0], at bead 0)
+        for c in range(3):
+            yp[ny - 3 + c] += 0.5 * RFD_DELTA * wv[ny - 3 + c]
+            ym[ny - 3 + c] -= 0.5 * RFD_DELTA * wv[ny - 3 + c]
+        zh[6], zh[7], zh[8] = Bd.rotvec_torque(yp[ny - 3], yp[ny - 2], yp[ny - 1], wv[ny - 3],
+                                               wv[ny - 2], wv[ny - 1])
     _mobility(yp, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1, general)
+    if cell:
+        zh[6], zh[7], zh[8] = Bd.rotvec_torque(ym[ny - 3], ym[ny - 2], ym[ny - 1], wv[ny - 3],
+                                               wv[ny - 2], wv[ny - 1])
     _mobility(ym, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1, general)
     for i in range(ny):
         b[i] += dt * kT / RFD_DELTA * (f1[i] - f2[i])
     zf[:, :] = 0.0
     zm[:] = 0.0
+    zh[:] = 0.0
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
@@ -225,10 +272,11 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
                                                          work[10], work[11], work[12])
     zf = np.zeros((n1, 3))
     zm = np.zeros(n1)
-    zh = np.zeros(3)
+    nh = 9 if iprm[K.I_ANCHOR] == K.ANCHOR_CELL else 3  # (a cell body's force and torque)
+    zh = np.zeros(nh)
     xi_f = np.zeros((n1, 3))
     xi_m = np.zeros(n1)
-    xi_h = np.zeros(3)
+    xi_h = np.zeros(nh)
     aa_m = 4
     aa_f, aa_g = np.zeros(ny), np.zeros(ny)
     aa_df, aa_dg = np.zeros((aa_m, ny)), np.zeros((aa_m, ny))
@@ -390,7 +438,9 @@ class ImplicitStepper:
         self._work = np.zeros((13, ny))
         self._xwork = np.zeros(ny + kl + ku)
         self._hist = np.zeros(4)
-        self._n_normals = (4 * (model.n + 1) + 3 + ny) if self.kT > 0 else 0
+        # per step: beads (3 + 1 each), hook (3), a cell body's force and torque (6), the
+        # random finite difference (ny)
+        self._n_normals = (4 * (model.n + 1) + 3 + 6 * model.cell + ny) if self.kT > 0 else 0
         # thermal noise of a nonlocal mobility: increments built outside the kernel each step
         self._nonlocal_noise = self.kT > 0 and model.iprm[K.I_HYDRO] != K.HYDRO_LOCAL
         if self._nonlocal_noise:

@@ -402,6 +402,9 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
     follows ΔΩ across m (its rate about m is its own balance), and the motor's load line
     w0 + b M takes the same correction, so clamp and law stay exact.
 
+    ``ext_hook`` of 9 values: after the hook frame's torque, a force (3) and a torque about
+    the centre (3) on the body (its thermal noise, :func:`flagellum.integrate.brownian.thermal_forces`).
+
     ``CW`` (6, 6): scratch of the generalized forces and their corrections (columns 0–1 gb,
     2–3 ΔM gb, 4 g, 5 ΔΩ), from the workspace: the right-hand side allocates none of them."""
     n = iprm[I_N]
@@ -484,6 +487,10 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
         for i in range(3):
             r[3 + i, 0] = df[i] + tk[i]
             r[3 + i, 1] = -m[i]
+    if ext_hook.shape[0] >= 9:  # the body's own external force and torque (thermal noise)
+        for i in range(3):
+            r[i, 0] += ext_hook[3 + i]
+            r[3 + i, 0] += ext_hook[6 + i]
     gb = CW[:, 0:2]  # generalized forces on (V, Ω), for the nonlocal correction
     dq = CW[:, 2:4]  # ΔM g on (V, Ω): column 0 without, column 1 per unit motor torque
     gb[:, :] = 0.0
@@ -569,7 +576,8 @@ def _rhs_kernel(GENERAL):
 
         ``ext_f`` (n+1, 3), ``ext_m`` (n+1): extra forces on the beads and torques about the
         frame tangents and ``ext_hook`` (3) a torque on the hook frame (thermal noise), added to
-        the elastic forces and the motor torque scaled by prm[P_ELASTIC].
+        the elastic forces and the motor torque scaled by prm[P_ELASTIC]; with a cell body it
+        may carry 9 values, the last six a force and a torque on the body (:func:`cell_motion`).
         If iprm[I_GEN] = 1 they are *generalized* forces conjugate to (r_i, θ_i) and are turned
         into physical ones with the chart's spin connection (used for the Itô drift).
         The motor torque is prm[P_TORQUE] or, for a speed clamp or a torque–speed law

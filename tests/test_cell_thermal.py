@@ -168,3 +168,22 @@ def test_thermal_cell_run_resumes_bit_identically(tmp_path, monkeypatch):
     a, b = read_trajectory(tmp_path / "ref.h5"), read_trajectory(tmp_path / "run.h5")
     for k in ("positions", "body_position", "body_axis", "body_angular_velocity", "final_state"):
         np.testing.assert_array_equal(a[k], b[k])
+
+
+@pytest.mark.slow
+def test_fixed_step_cell_converges_to_cvode_at_second_order():
+    """Deterministic cell (spheroid, L = 2 µm, M = 1, 0.01 s): the fixed-step BDF2 scheme,
+    whose chord iteration takes the rod's band without the orientation's coupling, converges
+    to CVODE's solution (rtol 1e-8) at second order in Δt (Buckwar & Winkler 2006; the
+    measured errors of the body's centre are 0.022 µm at Δt = 5e-5 s and 0.0066 µm at
+    2.5e-5 s, a regression value; the centre moves 0.46 µm)."""
+    bd = Boundary(anchor="free", body_radius=0.5, body_aspect=2.0)
+
+    def centre(**solver):
+        sim = Simulator(Params(Filament(length=2.0)), Motor(1.0), bd, solver=SolverOptions(**solver))
+        return sim.run(0.01, save_every=0.001, progress=False).body_position
+
+    ref = centre(method="cvode", rtol=1e-8)
+    e1 = np.abs(centre(method="implicit") - ref).max()
+    e2 = np.abs(centre(method="implicit", dt=2.5e-5) - ref).max()
+    assert e1 < 0.05 and e1 / e2 > 2.5

@@ -12,7 +12,10 @@ bias by a random finite difference (Delong et al., J. Chem. Phys. 140, 134110 (2
 
     kT ∂_q·M ≈ (kT/δ) [M(q + δW/2) − M(q − δW/2)] W,   W ~ N(0, 1),
 
-so the scheme samples the Boltzmann distribution to first order in Δt. The implicit
+so the scheme samples the Boltzmann distribution to first order in Δt. A cell body adds
+its own force and torque noise (covariance 2kT R/Δt of its resistance, :func:`body_noise`),
+its orientation φ to the random finite difference, and the torque kT ∇ ln det J(φ) of the
+invariant measure of its orientation (docs/motor.md, "Whole cell"). The implicit
 equation is solved by a chord (simplified Newton) iteration with a banded Jacobian that is
 reused over steps, accelerated by Anderson mixing (:func:`_anderson`); the Jacobian is
 refreshed only when the iteration diverges (the thermal kicks of a step are large at the bond
@@ -443,6 +446,8 @@ class ImplicitStepper:
         self._n_normals = (4 * (model.n + 1) + 3 + 6 * model.cell + ny) if self.kT > 0 else 0
         # thermal noise of a nonlocal mobility: increments built outside the kernel each step
         self._nonlocal_noise = self.kT > 0 and model.iprm[K.I_HYDRO] != K.HYDRO_LOCAL
+        if self._nonlocal_noise and model.cell:  # (simulator.check_cell refuses it up front)
+            raise ValueError("thermal noise of a cell body with a nonlocal mobility is not implemented")
         if self._nonlocal_noise:
             model.symmetric_mobility = True  # fluctuation–dissipation: noise of M_s, drift M_s F
             model.refresh_mobility(np.asarray(y0, float), force=True)

@@ -187,3 +187,23 @@ def test_fixed_step_cell_converges_to_cvode_at_second_order():
     e1 = np.abs(centre(method="implicit") - ref).max()
     e2 = np.abs(centre(method="implicit", dt=2.5e-5) - ref).max()
     assert e1 < 0.05 and e1 / e2 > 2.5
+
+
+@pytest.mark.slow
+def test_equipartition_of_the_filament_on_a_cell():
+    """M = 0, a free hook on a sphere free in 3D: the equilibrium statistics do not depend on
+    the mobility, so ⟨E⟩ = ½kT per quadratic mode as on the anchor (tests/test_thermal.py):
+    N joints × (2 bend + 1 twist) + N bonds = 4N modes; the body's 6 rigid motions and the
+    hook frame's turning cost nothing. Stretching alone: ½kT per bond."""
+    p = Params(Filament(length=2.0), Fluid(kT=KT))
+    n = p.filament.n_segments
+    sim = Simulator(p, Motor(0.0), Boundary(anchor="free", body_radius=0.5), thermal=True, seed=3,
+                    solver=SolverOptions(method="implicit", dt=5e-6, theta=0.5))
+    tr = sim.run(0.08, save_every=2e-5, progress=False)
+    e = tr.energy[len(tr.energy) // 5:]
+    blocks = np.array([b.mean() for b in np.array_split(e, 10)])
+    err = blocks.std(ddof=1) / np.sqrt(10)
+    assert e.mean() / (2 * n * KT) == pytest.approx(1.0, abs=max(0.05, 3 * err / (2 * n * KT)))
+    bonds = np.linalg.norm(np.diff(tr.positions[len(tr.t) // 5:], axis=1), axis=2)
+    stretch = 0.5 * p.filament.stretch_modulus * 0.2 * ((bonds / 0.2 - 1) ** 2).sum(1)
+    assert stretch.mean() / (0.5 * n * KT) == pytest.approx(1.0, abs=0.1)

@@ -53,9 +53,10 @@ def _cross(a0, a1, a2, b0, b1, b2):
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
-def frame_of(dx, dy, dz, th, ux, uy, uz, ex, ey, ez):
+def frame_of(dx, dy, dz, co, si, ux, uy, uz, ex, ey, ez):
     """One frame of :func:`frames` from its bond vector d (u0 for the hook frame), material
-    angle θ and chart (pole u, vector e): (|d|, t (3), a1 (3), e1 (3), e2 (3), s (3))."""
+    angle θ (co, si = cos θ, sin θ) and chart (pole u, vector e): (|d|, t (3), a1 (3),
+    e1 (3), e2 (3), s (3))."""
     ln = math.sqrt(dx * dx + dy * dy + dz * dz)
     tx, ty, tz = dx / ln, dy / ln, dz / ln
     d = ux * tx + uy * ty + uz * tz
@@ -65,7 +66,6 @@ def frame_of(dx, dy, dz, th, ux, uy, uz, ex, ey, ez):
     ce = (cx * ex + cy * ey + cz * ez) / (1.0 + d)
     a1x, a1y, a1z = d * ex + qx + ce * cx, d * ey + qy + ce * cy, d * ez + qz + ce * cz
     a2x, a2y, a2z = _cross(tx, ty, tz, a1x, a1y, a1z)
-    co, si = math.cos(th), math.sin(th)
     return (ln, tx, ty, tz, a1x, a1y, a1z,
             co * a1x + si * a2x, co * a1y + si * a2y, co * a1z + si * a2z,
             co * a2x - si * a1x, co * a2y - si * a1y, co * a2z - si * a1z,
@@ -85,9 +85,10 @@ def frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
         else:
             o, p = 3 + 4 * i, 3 + 4 * (i - 1)
             dx, dy, dz = y[o] - y[p], y[o + 1] - y[p + 1], y[o + 2] - y[p + 2]
+        th = y[6 + 4 * i]
         (LEN[i], T[i, 0], T[i, 1], T[i, 2], A1[i, 0], A1[i, 1], A1[i, 2], E1[i, 0], E1[i, 1],
          E1[i, 2], E2[i, 0], E2[i, 1], E2[i, 2], S[i, 0], S[i, 1], S[i, 2]) = frame_of(
-            dx, dy, dz, y[6 + 4 * i], ref_u[i, 0], ref_u[i, 1], ref_u[i, 2],
+            dx, dy, dz, math.cos(th), math.sin(th), ref_u[i, 0], ref_u[i, 1], ref_u[i, 2],
             ref_e[i, 0], ref_e[i, 1], ref_e[i, 2])
 
 

@@ -5,7 +5,9 @@ In one process: the cost of one Jacobian of each kind in right-hand sides (N = 5
 then the deterministic BDF with each (``CHAIN_JACOBIAN`` True / False, the loop recompiled
 from its own bytecode) from rest, L = 10 µm: buckled (M = 1.6, N = 50, 0.1 s; N = 200,
 0.01 s), aligned (M = 1, 0.1 s), M = 3 and M = 5 (0.05 s): steps, Jacobians, right-hand
-sides, wall time per simulated second (the fastest of 3 alternating runs) and the time averages of thrust, ω and χ (second half).
+sides, wall time per simulated second (the fastest of 3 alternating runs) and the time averages
+of thrust, ω and χ (second half); then the thermal implicit scheme (paper filament, M = 1,
+0.02 s, seed 1) with each.
 
 Run: OPENBLAS_NUM_THREADS=1 python benchmarks/bench_chain_jacobian.py [--quick]
 (``--quick``: the buckled N = 50 run only). Writes benchmarks/bench_chain_jacobian.json.
@@ -24,6 +26,7 @@ from numba import njit
 
 from flagellum import bench as FB
 from flagellum.integrate import bdf as B
+from flagellum.integrate import brownian as BR
 from flagellum.motor import Boundary, Motor
 from flagellum.params import Filament, Params
 from flagellum.rod import jacobian as RJ
@@ -47,6 +50,52 @@ def _fd_loop():
 
 
 LOOPS = {"chain": B.bdf_advance, "colored": _fd_loop()}
+
+
+@njit
+def _colored_only(general, y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl,
+                  ku, ab, scale, y_work, f_work, color, lo, hi):
+    K.model_colored_jacobian(general, y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m,
+                             ext_hook, ws, kl, ku, ab, scale, y_work, f_work, color, lo, hi)
+    return color.max() + 1
+
+
+def _fd_thermal():
+    """implicit_steps with the coloured Jacobian (its ``RJ`` a module holding only that)."""
+    fake = types.ModuleType("colored_only")
+    fake.model_jacobian = _colored_only
+    f = BR.implicit_steps.py_func
+    return njit(types.FunctionType(f.__code__, dict(f.__globals__, RJ=fake), f.__name__))
+
+
+THERMAL = {"chain": BR.implicit_steps, "colored": _fd_thermal()}
+
+
+def thermal(loop: str, t_end: float) -> dict:
+    """The thermal paper filament (N = 50, M = 1, kT of the paper, seed 1; the implicit scheme)."""
+    BR.implicit_steps = THERMAL[loop]
+    made = []
+    init = BR.ImplicitStepper.__init__
+
+    def keep(self, *a, **k):
+        init(self, *a, **k)
+        made.append(self)
+
+    BR.ImplicitStepper.__init__ = keep
+    try:
+        sim = Simulator(Params(), Motor(1.0), Boundary(), thermal=True, seed=1,
+                        solver=SolverOptions(method="implicit"))
+        w0 = time.perf_counter()
+        tr = sim.run(t_end, save_every=t_end / 200, progress=False)
+        wall = time.perf_counter() - w0
+    finally:
+        BR.implicit_steps, BR.ImplicitStepper.__init__ = THERMAL["chain"], init
+    st = made[-1]
+    summ = tr.summary()
+    return {"case": "thermal M=1 N=50", "t_end": t_end, "jacobian": loop,
+            "wall_per_simulated_second": wall / t_end, "steps": st.n_steps,
+            "jacobians_per_step": st.n_jac / st.n_steps, "thrust_mean": float(summ.thrust_mean),
+            "omega_mean": float(summ.omega_mean)}
 
 
 def _timed(fn, reps):
@@ -121,6 +170,19 @@ def main() -> None:
         for r in pair.values():
             out["runs"].append(r)
             print(json.dumps({k: round(v, 6) if isinstance(v, float) else v for k, v in r.items()}), flush=True)
+    for loop in THERMAL:
+        thermal(loop, 1e-3)
+    best: dict = {}
+    for _ in range(REPEATS):
+        for loop in THERMAL:
+            r = thermal(loop, 0.005 if QUICK else 0.02)
+            if loop not in best or r["wall_per_simulated_second"] < best[loop]["wall_per_simulated_second"]:
+                best[loop] = r
+    best["chain"]["wall_ratio_chain_over_colored"] = (
+        best["chain"]["wall_per_simulated_second"] / best["colored"]["wall_per_simulated_second"])
+    out["thermal"] = list(best.values())
+    for r in out["thermal"]:
+        print(json.dumps({k: round(v, 6) if isinstance(v, float) else v for k, v in r.items()}), flush=True)
     if not QUICK:
         (HERE / "bench_chain_jacobian.json").write_text(json.dumps(out, indent=1) + "\n")
 

@@ -13,8 +13,8 @@ from numba import njit
 
 from flagellum import Params
 from flagellum.integrate import bdf as B
-from flagellum.motor import Boundary, EndLoad, Motor, MotorLaw
-from flagellum.params import Filament
+from flagellum.motor import Boundary, Motor, MotorLaw
+from flagellum.params import EndLoad, Filament
 from flagellum.rod import jacobian as RJ
 from flagellum.rod import kernels as K
 from flagellum.rod.model import RodModel
@@ -110,7 +110,7 @@ def test_chain_jacobian_of_a_straight_filament_and_with_external_forces():
     elastic scale prm[P_ELASTIC] ≠ 1 and a scale factor on the band (the implicit scheme's
     −βΔt): against the central difference as above."""
     rng = np.random.default_rng(5)
-    m = RodModel(Params(Filament(segment_length=0.5, kappa0=0.0, torsion=0.0)), Motor(0.5))
+    m = RodModel(Params(Filament(segment_length=0.5, kappa0=0.0, tau0=0.0)), Motor(0.5))
     kl, ku = m.jacobian_band
     y = m.initial_state()
     y[3:] += rng.normal(0.0, 1e-6, y.size - 3)

@@ -7,7 +7,7 @@ from its own bytecode) from rest, L = 10 µm: buckled (M = 1.6, N = 50, 0.1 s; N
 0.01 s), aligned (M = 1, 0.1 s), M = 3 and M = 5 (0.05 s): steps, Jacobians, right-hand
 sides, wall time per simulated second (the fastest of 3 alternating runs) and the time averages
 of thrust, ω and χ (second half); then the thermal implicit scheme (paper filament, M = 1,
-0.02 s, seed 1) with each.
+0.02 s, seed 1) with each (it ships with the coloured one; the chain rule by recompiling it).
 
 Run: OPENBLAS_NUM_THREADS=1 python benchmarks/bench_chain_jacobian.py [--quick]
 (``--quick``: the buckled N = 50 run only). Writes benchmarks/bench_chain_jacobian.json.
@@ -53,22 +53,23 @@ LOOPS = {"chain": B.bdf_advance, "colored": _fd_loop()}
 
 
 @njit
-def _colored_only(general, y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl,
-                  ku, ab, scale, y_work, f_work, color, lo, hi):
-    K.model_colored_jacobian(general, y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m,
-                             ext_hook, ws, kl, ku, ab, scale, y_work, f_work, color, lo, hi)
-    return color.max() + 1
+def _chain_or_colored(general, y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws,
+                      kl, ku, ab, scale, y_work, f_work, color, lo, hi):
+    RJ.model_jacobian(general, y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws,
+                      kl, ku, ab, scale, y_work, f_work, color, lo, hi)
 
 
-def _fd_thermal():
-    """implicit_steps with the coloured Jacobian (its ``RJ`` a module holding only that)."""
-    fake = types.ModuleType("colored_only")
-    fake.model_jacobian = _colored_only
+def _chain_thermal():
+    """implicit_steps with the chain-rule Jacobian: its ``K`` a copy of rod.kernels whose
+    model_colored_jacobian is rod.jacobian.model_jacobian (the shipped scheme keeps the coloured one)."""
+    fake = types.ModuleType("kernels_chain")
+    fake.__dict__.update({k: v for k, v in K.__dict__.items() if not k.startswith("__")})
+    fake.model_colored_jacobian = _chain_or_colored
     f = BR.implicit_steps.py_func
-    return njit(types.FunctionType(f.__code__, dict(f.__globals__, RJ=fake), f.__name__))
+    return njit(types.FunctionType(f.__code__, dict(f.__globals__, K=fake), f.__name__))
 
 
-THERMAL = {"chain": BR.implicit_steps, "colored": _fd_thermal()}
+THERMAL = {"chain": _chain_thermal(), "colored": BR.implicit_steps}
 
 
 def thermal(loop: str, t_end: float) -> dict:
@@ -89,7 +90,7 @@ def thermal(loop: str, t_end: float) -> dict:
         tr = sim.run(t_end, save_every=t_end / 200, progress=False)
         wall = time.perf_counter() - w0
     finally:
-        BR.implicit_steps, BR.ImplicitStepper.__init__ = THERMAL["chain"], init
+        BR.implicit_steps, BR.ImplicitStepper.__init__ = THERMAL["colored"], init
     st = made[-1]
     summ = tr.summary()
     return {"case": "thermal M=1 N=50", "t_end": t_end, "jacobian": loop,

@@ -37,7 +37,6 @@ from .._jit import FASTMATH
 from ..errors import SimulationError
 from ..hydro import local as L
 from ..hydro.dynamics import correction, local_mobility, moving_components
-from ..rod import jacobian as RJ
 from ..rod import kernels as K
 from .banded import band_factor, band_solve
 
@@ -277,8 +276,9 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
             fresh = jac_age < 0 or jac_age >= jac_every
             if fresh:
                 K.model_rhs(general, y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws)
-                RJ.model_jacobian(general, y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, kl,
-                                  ku, ab, -beta * dt, yw, fw, colors[0], colors[1], colors[2])
+                K.model_colored_jacobian(general, y, f, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh,
+                                         ws, kl, ku, ab, -beta * dt, yw, fw, colors[0], colors[1],
+                                         colors[2])
                 for j in range(ny):
                     ab[j, kv] += 1.0
                 hist[2] = beta

@@ -157,20 +157,14 @@ def test_hook_rows_follow_the_right_hand_side():
         y = _state(m, rng)
         f = np.zeros(y.size)
         K.rod_rhs(y, f, *_args(m))
-        w = _Hook.rows(m, y)
+        ws = m._ws  # (after the rhs: G_t in ws[5], G_Θ in ws[6])
+        w = np.array(_hook_rows(m.prm, m.iprm, y, ws[5], ws[6], m.ref_u, m.ref_e, m._zh))
         ref = np.array([f[0], f[1], f[2], f[6]])
         assert np.allclose(w, ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max())
 
 
-class _Hook:
-    @staticmethod
-    def rows(m, y):
-        ws = m._ws
-        return np.array(_hook_rows_py(m.prm, m.iprm, y, ws[5], ws[6], m.ref_u, m.ref_e, m._zh))
-
-
 @njit
-def _hook_rows_py(prm, iprm, y, GT, GTH, ref_u, ref_e, zh):
+def _hook_rows(prm, iprm, y, GT, GTH, ref_u, ref_e, zh):
     return RJ._hook_rows(prm, iprm, prm[K.P_ELASTIC], zh, y[0], y[1], y[2], GT[0, 0], GT[0, 1],
                          GT[0, 2], GTH[0], ref_u, ref_e)
 

@@ -10,12 +10,14 @@ the beads (G_t projected, plus stretching) → bead velocities through the local
 derivative is taken once per bead or joint and the blocks are multiplied out, so the whole
 band costs a few right-hand sides instead of one per colour (:func:`colored_jacobian`).
 
-Derivatives: closed form for the bond forces (projection and stretching), the chart rates and
-the friction's linear dependence on the force; one-sided differences of the joints' terms
-in their 8 inputs (the Hessian of the bend/twist energy, whose closed form is long) and
-central differences of the drag in its tangents and of the hook balance in its 7 inputs.
-Every difference is of a function of ≤ 8 numbers, so its step is chosen for that function
-alone (the coloured Jacobian's steps are shared by whole groups of columns).
+Derivatives: closed form for the bond forces (projection and stretching), the chart rates
+(spin connection, frame rotation), the drag of the free beads (force and averaged tangent)
+and a joint's dependence on θ_a (through the twist only); one-sided differences of a joint's
+terms in its other 7 inputs (the Hessian of the bend/twist energy through the transported
+frames, whose closed form is long); central differences of the anchored bead's drag in its
+tangent and of the hook balance in its 7 inputs. Every difference is of a function of a few
+numbers, so its step suits that function alone (the coloured Jacobian's steps are shared by
+whole groups of columns).
 
 Covered (:func:`covered`): the local drag (``HYDRO_LOCAL``), forces as physical forces
 (``I_GEN = 0``), no end load, no cell body, no per-joint shape, elastic scale ≠ 0 — every
@@ -36,7 +38,7 @@ from . import kernels as K
 
 #: relative step of the one-sided differences of a joint (bond vectors: × |d|; angles: × 1)
 JOINT_STEP = 1e-8
-#: relative step of the central differences of the drag and of the hook balance
+#: relative step of the central differences of bead 0's drag and of the hook balance
 CENTRAL_STEP = 1e-6
 
 

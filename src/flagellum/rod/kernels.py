@@ -52,6 +52,26 @@ def _cross(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
+@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
+def frame_of(dx, dy, dz, co, si, ux, uy, uz, ex, ey, ez):
+    """One frame of :func:`frames` from its bond vector d (u0 for the hook frame), material
+    angle θ (co, si = cos θ, sin θ) and chart (pole u, vector e): (|d|, t (3), a1 (3),
+    e1 (3), e2 (3), s (3))."""
+    ln = math.sqrt(dx * dx + dy * dy + dz * dz)
+    tx, ty, tz = dx / ln, dy / ln, dz / ln
+    d = ux * tx + uy * ty + uz * tz
+    cx, cy, cz = _cross(ux, uy, uz, tx, ty, tz)
+    # a1 = P(u→t) e = d e + c×e + (c·e)/(1+d) c
+    qx, qy, qz = _cross(cx, cy, cz, ex, ey, ez)
+    ce = (cx * ex + cy * ey + cz * ez) / (1.0 + d)
+    a1x, a1y, a1z = d * ex + qx + ce * cx, d * ey + qy + ce * cy, d * ez + qz + ce * cz
+    a2x, a2y, a2z = _cross(tx, ty, tz, a1x, a1y, a1z)
+    return (ln, tx, ty, tz, a1x, a1y, a1z,
+            co * a1x + si * a2x, co * a1y + si * a2y, co * a1z + si * a2z,
+            co * a2x - si * a1x, co * a2y - si * a1y, co * a2z - si * a1z,
+            -cx / (1.0 + d), -cy / (1.0 + d), -cz / (1.0 + d))
+
+
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
     """Fill tangents T, material vectors E1, E2, bond lengths LEN, spin connections S and
@@ -65,25 +85,60 @@ def frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
         else:
             o, p = 3 + 4 * i, 3 + 4 * (i - 1)
             dx, dy, dz = y[o] - y[p], y[o + 1] - y[p + 1], y[o + 2] - y[p + 2]
-        ln = math.sqrt(dx * dx + dy * dy + dz * dz)
-        LEN[i] = ln
-        tx, ty, tz = dx / ln, dy / ln, dz / ln
-        T[i, 0], T[i, 1], T[i, 2] = tx, ty, tz
-        ux, uy, uz = ref_u[i, 0], ref_u[i, 1], ref_u[i, 2]
-        ex, ey, ez = ref_e[i, 0], ref_e[i, 1], ref_e[i, 2]
-        d = ux * tx + uy * ty + uz * tz
-        cx, cy, cz = _cross(ux, uy, uz, tx, ty, tz)
-        # a1 = P(u→t) e = d e + c×e + (c·e)/(1+d) c
-        qx, qy, qz = _cross(cx, cy, cz, ex, ey, ez)
-        ce = (cx * ex + cy * ey + cz * ez) / (1.0 + d)
-        a1x, a1y, a1z = d * ex + qx + ce * cx, d * ey + qy + ce * cy, d * ez + qz + ce * cz
-        a2x, a2y, a2z = _cross(tx, ty, tz, a1x, a1y, a1z)
-        A1[i, 0], A1[i, 1], A1[i, 2] = a1x, a1y, a1z
         th = y[6 + 4 * i]
-        co, si = math.cos(th), math.sin(th)
-        E1[i, 0], E1[i, 1], E1[i, 2] = co * a1x + si * a2x, co * a1y + si * a2y, co * a1z + si * a2z
-        E2[i, 0], E2[i, 1], E2[i, 2] = co * a2x - si * a1x, co * a2y - si * a1y, co * a2z - si * a1z
-        S[i, 0], S[i, 1], S[i, 2] = -cx / (1.0 + d), -cy / (1.0 + d), -cz / (1.0 + d)
+        (LEN[i], T[i, 0], T[i, 1], T[i, 2], A1[i, 0], A1[i, 1], A1[i, 2], E1[i, 0], E1[i, 1],
+         E1[i, 2], E2[i, 0], E2[i, 1], E2[i, 2], S[i, 0], S[i, 1], S[i, 2]) = frame_of(
+            dx, dy, dz, math.cos(th), math.sin(th), ref_u[i, 0], ref_u[i, 1], ref_u[i, 2],
+            ref_e[i, 0], ref_e[i, 1], ref_e[i, 2])
+
+
+@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
+def joint_of(tax, tay, taz, tbx, tby, tbz, e1x, e1y, e1z, e2x, e2y, e2z, vx, vy, vz, rx, ry, rz,
+             tha, thb, refm, h, A, C, kap, tau):
+    """One joint of :func:`elastic` between frames a and b (tangents, b's material vectors,
+    both reference vectors a1, material angles, the twist's branch ``refm``, intrinsic
+    curvature ``kap`` and torsion ``tau``): (energy, Ω1, Ω2, ψ, its parts of G_t of a (3)
+    and of b (3), of G_Θ of b, minus its part of G_Θ of a)."""
+    cx, cy, cz = _cross(tax, tay, taz, tbx, tby, tbz)
+    cosp = tax * tbx + tay * tby + taz * tbz
+    sinp = math.sqrt(cx * cx + cy * cy + cz * cz)
+    phi = atan2(sinp, cosp)
+    if phi < 1e-4:
+        p2 = phi * phi
+        f = 1.0 + p2 / 6.0 + 7.0 * p2 * p2 / 360.0
+        g = 1.0 / 3.0 + 2.0 * p2 / 15.0
+    else:
+        f = phi / sinp
+        g = (sinp - phi * cosp) / (sinp * sinp * sinp)
+    k1 = f * (cx * e1x + cy * e1y + cz * e1z) / h
+    k2 = f * (cx * e2x + cy * e2y + cz * e2z) / h
+    # twist ψ = θ_b − θ_a + m, with m the angle from P(ta→tb) a1_a to a1_b about tb
+    # (reference vectors a1 = cos θ e1 − sin θ e2), taken on the branch nearest to the
+    # last known value refm: ψ is never wrapped, so the energy has no cusp and a 2π
+    # twist costs what it should (no spurious twist slips).
+    qx, qy, qz = _cross(cx, cy, cz, vx, vy, vz)
+    cv = (cx * vx + cy * vy + cz * vz) / (1.0 + cosp)
+    px, py, pz = cosp * vx + qx + cv * cx, cosp * vy + qy + cv * cy, cosp * vz + qz + cv * cz
+    wx, wy, wz = _cross(px, py, pz, rx, ry, rz)
+    mr = atan2(wx * tbx + wy * tby + wz * tbz, px * rx + py * ry + pz * rz)
+    mr += 2.0 * math.pi * math.floor((refm - mr) / (2.0 * math.pi) + 0.5)
+    psi = thb - tha + mr
+    d2 = k2 - kap
+    d3 = psi / h - tau
+    energy = 0.5 * h * (A * (k1 * k1 + d2 * d2) + C * d3 * d3)
+    m1, m2, m3 = A * k1 * h, A * d2 * h, C * d3
+    Vx, Vy, Vz = m1 * e1x + m2 * e2x, m1 * e1y + m2 * e2y, m1 * e1z + m2 * e2z
+    cV = g * (cx * Vx + cy * Vy + cz * Vz)
+    kb = m3 / (1.0 + cosp)  # (m3/2) κb = m3 c/(1 + cos φ)
+    rx, ry, rz = _cross(tbx, tby, tbz, Vx, Vy, Vz)
+    gax = (-cV * tbx + f * rx) / h + kb * cx
+    gay = (-cV * tby + f * ry) / h + kb * cy
+    gaz = (-cV * tbz + f * rz) / h + kb * cz
+    rx, ry, rz = _cross(Vx, Vy, Vz, tax, tay, taz)
+    gbx = (-cV * tax + f * rx) / h + kb * cx
+    gby = (-cV * tay + f * ry) / h + kb * cy
+    gbz = (-cV * taz + f * rz) / h + kb * cz
+    return energy, k1, k2, psi, gax, gay, gaz, gbx, gby, gbz, m1 * k2 - m2 * k1 + m3, m3
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
@@ -101,59 +156,24 @@ def elastic(y, n, h, A, C, K, kappa0, tau0, hook_k, ref_u, ref_e, ref_m,
     energy = 0.0
     for j in range(n):
         a, b = j, j + 1
-        tax, tay, taz = T[a, 0], T[a, 1], T[a, 2]
-        tbx, tby, tbz = T[b, 0], T[b, 1], T[b, 2]
-        cx, cy, cz = _cross(tax, tay, taz, tbx, tby, tbz)
-        cosp = tax * tbx + tay * tby + taz * tbz
-        sinp = math.sqrt(cx * cx + cy * cy + cz * cz)
-        phi = atan2(sinp, cosp)
-        if phi < 1e-4:
-            p2 = phi * phi
-            f = 1.0 + p2 / 6.0 + 7.0 * p2 * p2 / 360.0
-            g = 1.0 / 3.0 + 2.0 * p2 / 15.0
-        else:
-            f = phi / sinp
-            g = (sinp - phi * cosp) / (sinp * sinp * sinp)
-        e1x, e1y, e1z = E1[b, 0], E1[b, 1], E1[b, 2]
-        e2x, e2y, e2z = E2[b, 0], E2[b, 1], E2[b, 2]
-        k1 = f * (cx * e1x + cy * e1y + cz * e1z) / h
-        k2 = f * (cx * e2x + cy * e2y + cz * e2z) / h
-        # twist ψ = θ_b − θ_a + m, with m the angle from P(ta→tb) a1_a to a1_b about tb
-        # (reference vectors a1 = cos θ e1 − sin θ e2), taken on the branch nearest to the
-        # last known value ref_m[b]: ψ is never wrapped, so the energy has no cusp and a 2π
-        # twist costs what it should (no spurious twist slips).
-        tha, thb = y[6 + 4 * a], y[6 + 4 * b]
-        vx, vy, vz = A1[a, 0], A1[a, 1], A1[a, 2]
-        rx, ry, rz = A1[b, 0], A1[b, 1], A1[b, 2]
-        qx, qy, qz = _cross(cx, cy, cz, vx, vy, vz)
-        cv = (cx * vx + cy * vy + cz * vz) / (1.0 + cosp)
-        px, py, pz = cosp * vx + qx + cv * cx, cosp * vy + qy + cv * cy, cosp * vz + qz + cv * cz
-        wx, wy, wz = _cross(px, py, pz, rx, ry, rz)
-        mr = atan2(wx * tbx + wy * tby + wz * tbz, px * rx + py * ry + pz * rz)
-        mr += 2.0 * math.pi * math.floor((ref_m[b] - mr) / (2.0 * math.pi) + 0.5)
-        psi = thb - tha + mr
         if kappa is None:
-            d2 = k2 - kappa0
-            d3 = psi / h - tau0
+            kj, tj = kappa0, tau0
         else:
-            d2 = k2 - kappa[j]
-            d3 = psi / h - tau[j]
+            kj, tj = kappa[j], tau[j]
+        ej, k1, k2, psi, gax, gay, gaz, gbx, gby, gbz, gthb, m3 = joint_of(
+            T[a, 0], T[a, 1], T[a, 2], T[b, 0], T[b, 1], T[b, 2], E1[b, 0], E1[b, 1], E1[b, 2],
+            E2[b, 0], E2[b, 1], E2[b, 2], A1[a, 0], A1[a, 1], A1[a, 2], A1[b, 0], A1[b, 1],
+            A1[b, 2], y[6 + 4 * a], y[6 + 4 * b], ref_m[b], h, A, C, kj, tj)
         if strains is not None:
             strains[j, 0], strains[j, 1], strains[j, 2] = k1, k2, psi / h
-        energy += 0.5 * h * (A * (k1 * k1 + d2 * d2) + C * d3 * d3)
-        m1, m2, m3 = A * k1 * h, A * d2 * h, C * d3
-        Vx, Vy, Vz = m1 * e1x + m2 * e2x, m1 * e1y + m2 * e2y, m1 * e1z + m2 * e2z
-        cV = g * (cx * Vx + cy * Vy + cz * Vz)
-        kb = m3 / (1.0 + cosp)  # (m3/2) κb = m3 c/(1 + cos φ)
-        rx, ry, rz = _cross(tbx, tby, tbz, Vx, Vy, Vz)
-        GT[a, 0] += (-cV * tbx + f * rx) / h + kb * cx
-        GT[a, 1] += (-cV * tby + f * ry) / h + kb * cy
-        GT[a, 2] += (-cV * tbz + f * rz) / h + kb * cz
-        rx, ry, rz = _cross(Vx, Vy, Vz, tax, tay, taz)
-        GT[b, 0] += (-cV * tax + f * rx) / h + kb * cx
-        GT[b, 1] += (-cV * tay + f * ry) / h + kb * cy
-        GT[b, 2] += (-cV * taz + f * rz) / h + kb * cz
-        GTH[b] += m1 * k2 - m2 * k1 + m3
+        energy += ej
+        GT[a, 0] += gax
+        GT[a, 1] += gay
+        GT[a, 2] += gaz
+        GT[b, 0] += gbx
+        GT[b, 1] += gby
+        GT[b, 2] += gbz
+        GTH[b] += gthb
         GTH[a] -= m3
     for i in range(1, n + 1):
         st = LEN[i] / h - 1.0
@@ -558,6 +578,48 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
     out[17] = w0 + b * torque
     out[18] = e_hook
     return out
+
+
+@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
+def hook_of(prm, iprm, el, hx, hy, hz, tx, ty, tz, gx, gy, gz, gth):
+    """The hook frame's angular velocity in the lab (Eq. (12)) from its tangent t, its G_t
+    (g) and G_Θ (gth) and an external torque (hx, hy, hz), with the motor's drive (a clamp's
+    or a law's torque solved, :func:`motor_torque`): (ω (3), motor torque, motor speed
+    relative to the body). The same operations as the hook part of :func:`rhs`, which keeps
+    them inline (a call there changes the last bit of θ̇0 where LLVM contracts differently);
+    tests/test_rod_jacobian.py checks the two agree."""
+    h, gperp, grot = prm[P_H], prm[P_GPERP], prm[P_GROT]
+    qx, qy, qz = _cross(tx, ty, tz, gx, gy, gz)
+    mx = hx - (qx + gth * tx)
+    my = hy - (qy + gth * ty)
+    if iprm[I_DRIVE] == DRIVE_TORQUE:
+        torque = el * prm[P_TORQUE]
+        mz = hz + el * prm[P_TORQUE] - (qz + gth * tz)
+    else:  # a clamp's or a law's drive value is no torque: its torque is added below, once
+        # solved (applying the drive value and taking it off again loses digits)
+        torque = 0.0
+        mz = hz - (qz + gth * tz)
+    mt = mx * tx + my * ty + mz * tz
+    zt, zp = L.hook_friction(h, gperp, grot, iprm[I_HOOK] == HOOK_CLAMPED)
+    wt = mt / zt
+    if zp == 0.0:  # clamped: turns about its tangent only
+        wx, wy, wz = wt * tx, wt * ty, wt * tz
+    else:
+        ipp = 1.0 / zp
+        wx = wt * tx + ipp * (mx - mt * tx)
+        wy = wt * ty + ipp * (my - mt * ty)
+        wz = wt * tz + ipp * (mz - mt * tz)
+    if iprm[I_DRIVE] != DRIVE_TORQUE:  # speed clamp or law: the rates are linear in the
+        # torque M e_z, and w are the rates without it: add the solved motor torque
+        torque = 0.0 if el == 0.0 else motor_torque(prm, iprm, wz, tz, zt, zp)
+        dm = torque
+        wt = dm * tz / zt
+        wx, wy, wz = wx + wt * tx, wy + wt * ty, wz + wt * tz
+        if zp != 0.0:
+            ipp = dm / zp
+            wx, wy, wz = wx - ipp * tz * tx, wy - ipp * tz * ty, wz + ipp * (1.0 - tz * tz)
+    relative = wz + prm[P_BODY] * torque
+    return wx, wy, wz, torque, relative
 
 
 def _rhs_kernel(GENERAL):

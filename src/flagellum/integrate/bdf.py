@@ -5,8 +5,8 @@ backward-difference form with the NDF error constants κ of Shampine & Reichelt 
 Comput. 18, 1997), the algorithm of scipy's ``BDF`` (difference array D, step changes by
 the transformation R·U of D, order chosen from the error estimates of orders k − 1, k,
 k + 1 after k + 1 equal steps). Newton's method is modified Newton: the banded
-finite-difference Jacobian (:func:`flagellum.rod.kernels.colored_jacobian`, one right-hand
-side per colour) is kept across steps and refreshed only when the iteration fails to
+Jacobian (by the chain rule, :mod:`flagellum.rod.jacobian`, where it covers the model; else
+the coloured finite difference :func:`flagellum.rod.kernels.colored_jacobian`) is kept across steps and refreshed only when the iteration fails to
 converge, as CVODE does; the iteration matrix I − cJ is refactorized (banded LU,
 :mod:`.banded`) when c = h/α_k changes. Output between steps is the interpolating
 polynomial of the BDF (the integrator steps past the requested time, as CVODE does).

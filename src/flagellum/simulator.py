@@ -54,6 +54,11 @@ MIN_SPAN = 1e-9  #: shortest run [s]: CVODE cannot step across a span at the rou
 #: lab-frame run (load sphere, M = 4.37 pN·µm: 20 000 steps per 1-ms chunk); re-centred at 90°
 #: the same run takes ≤ 200 steps per chunk (docs/benchmarks.md, "Stalls")
 CHART_LIMIT = 0.0
+#: carry an adaptive stepper's history through a re-centred chart or a change of the frame's
+#: rate (a smooth change of coordinates, :meth:`RodModel.change_coordinates`) instead of
+#: restarting it at order 1 (steppers with a ``carry`` method: the Numba BDF;
+#: docs/numerics.md, "Hand-written BDF")
+CARRY_HISTORY = True
 
 
 @dataclass(frozen=True)
@@ -487,12 +492,33 @@ class Simulator:
             t_prev = stepper.t
             y = self._advance_chunk(stepper, t_next)
             reset = self.polymorphism is not None and self._transform(y, t_next - t_prev)
-            if t_next < t_target and self.model.rechart(y, threshold=CHART_LIMIT):
-                self.model.refresh_mobility(y, force=True)
-                reset = True
+            charts = self.model.charts()
+            moved = t_next < t_target and self.model.rechart(y, threshold=CHART_LIMIT)
             if reset or switch is not None:
+                if moved:
+                    self.model.refresh_mobility(y, force=True)
                 stepper.reset(t_next, y)
+            elif moved:
+                self._carry(stepper, t_next, y, charts, self.model.omega_frame)
         return y
+
+    def _carry(self, stepper, t: float, y: np.ndarray, charts, omega: float) -> None:
+        """Continue ``stepper`` at (t, y) after the charts moved from ``charts`` (poles,
+        reference vectors, twists) and the frame's rate from ``omega`` to the model's:
+        with its history mapped into the new coordinates where it can carry it
+        (:data:`CARRY_HISTORY`), else restarted. A past state at time s is turned by
+        −(Ω' − Ω)(s − t) about e_z (the frame angle is continuous at t) and its angles are
+        measured against the new charts (:meth:`RodModel.change_coordinates`)."""
+        m = self.model
+        carry = getattr(stepper, "carry", None)
+        if not CARRY_HISTORY or carry is None or m.cell or not m.hydrodynamics.is_local:
+            m.refresh_mobility(y, force=True)
+            stepper.reset(t, y)
+            return
+        d_omega = m.omega_frame - omega
+        moved = np.any(charts[0] != m.ref_u, axis=1) | np.any(charts[1] != m.ref_e, axis=1)
+        only = None if d_omega != 0.0 else moved
+        carry(t, y, lambda s, ys: m.change_coordinates(ys, charts, -d_omega * (s - t), only))
 
     def _advance_chunk(self, stepper, t_next: float) -> np.ndarray:
         """One chunk; if the stepper fails, once more from the chunk's start after re-centring
@@ -643,8 +669,10 @@ class Simulator:
                 self.t, self.y = float(tk), y
                 good = (self.t, self.y.copy(), self.frame_angle)
                 self._record(buf)
-                changed = self.model.rechart(self.y, threshold=CHART_LIMIT)
-                changed |= self._adapt_frame(buf)
+                charts, omega = self.model.charts(), self.model.omega_frame
+                moved = self.model.rechart(self.y, threshold=CHART_LIMIT)
+                moved |= self._adapt_frame(buf)
+                changed = False
                 if bar is not None:
                     bar.update(1)
                 if (i + 1) % flush_every == 0 and i + 1 < len(times):
@@ -655,6 +683,8 @@ class Simulator:
                 if changed:
                     self.model.refresh_mobility(self.y, force=True)
                     stepper.reset(self.t, self.y)
+                elif moved:
+                    self._carry(stepper, self.t, self.y, charts, omega)
         except OutputError:
             raise  # the parts and the last checkpoint stay as they are
         except SimulationError as exc:

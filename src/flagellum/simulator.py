@@ -8,8 +8,9 @@ rotating filament is then a fixed point, which the error-controlled integrator c
 large steps. Outputs are always reported in the lab frame.
 
 This module holds the integration loop: run planning, advancing between records with chart
-checks, the blow-up check, recording, and the frame adaptation (it changes the right-hand
-side, so it restarts the stepper like a re-centred chart). The records and their files
+checks, the blow-up check, recording, and the frame adaptation (a change of coordinates like
+a re-centred chart: a stepper with ``carry`` maps its history into the new coordinates, the
+others restart). The records and their files
 (parts, checkpoints) are :mod:`flagellum.trajectory`.
 
 Example
@@ -48,16 +49,16 @@ from .trajectory import COMPLETE, OutputError, RunFiles, Trajectory
 MAX_STRAIN = 0.5  #: a bond stretched or compressed by more than this is a blow-up
 MAX_RECORDS = 10**6  #: records per run (memory of the returned trajectory)
 MIN_SPAN = 1e-9  #: shortest run [s]: CVODE cannot step across a span at the rounding of t
-#: re-centre a chart (and restart the integrator) when t·u falls below this. The reference
-#: vector's parallel transport from the pole u turns like 1/(1 + t·u), and tangents left
-#: until t·u < −0.5 made both adaptive integrators grind at h ≈ 1e-9–1e-8 s in a whirling
-#: lab-frame run (load sphere, M = 4.37 pN·µm: 20 000 steps per 1-ms chunk); re-centred at 90°
-#: the same run takes ≤ 200 steps per chunk (docs/benchmarks.md, "Stalls")
+#: re-centre a chart when t·u falls below this. The reference vector's parallel transport
+#: from the pole u turns like 1/(1 + t·u), and tangents left until t·u < −0.5 made both
+#: adaptive integrators grind at h ≈ 1e-9–1e-8 s in a whirling lab-frame run (load sphere,
+#: M = 4.37 pN·µm: 20 000 steps per 1-ms chunk); re-centred at 90° the same run takes ≤ 200
+#: steps per chunk (docs/benchmarks.md, "Stalls")
 CHART_LIMIT = 0.0
 #: carry an adaptive stepper's history through a re-centred chart or a change of the frame's
 #: rate (a smooth change of coordinates, :meth:`RodModel.change_coordinates`) instead of
 #: restarting it at order 1 (steppers with a ``carry`` method: the Numba BDF;
-#: docs/numerics.md, "Hand-written BDF")
+#: docs/numerics.md, "Chart and frame changes without a restart")
 CARRY_HISTORY = True
 
 
@@ -459,8 +460,8 @@ class Simulator:
 
     def _advance(self, stepper, t_target: float) -> np.ndarray:
         """Advance to t_target in chunks short enough that no tangent can turn by more than
-        ~1/2 rad between chart checks (charts are re-centred, and the integrator restarted,
-        only when a tangent has left its chart by more than 90°)."""
+        ~1/2 rad between chart checks (charts are re-centred only when a tangent has left its
+        chart by more than 90°; the stepper carries its history through, :meth:`_carry`)."""
         rate = max(abs(self.model.omega_frame), 100.0)
         if self._last_motor is not None:  # measured motor speed, capped: transients spike it
             rate = max(rate, min(abs(self._last_motor[3]), 3.0 * self._omega_scale))
@@ -583,7 +584,8 @@ class Simulator:
     def _adapt_frame(self, buf) -> bool:
         """Co-rotating frame (frame='auto'): follow the motor speed once it has settled; in
         unsteady states (buckled, oscillating) follow its mean roughly (within 25 %), which
-        keeps the integrator restarts rare while the filament stays slow in that frame."""
+        keeps the changes (restarts of the steppers without ``carry``) rare while the filament
+        stays slow in that frame."""
         if self.solver.frame != "auto" or len(buf["motor_angle"]) < 5:
             return False
         t = np.array(buf["t"][-5:])

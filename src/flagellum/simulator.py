@@ -8,8 +8,9 @@ rotating filament is then a fixed point, which the error-controlled integrator c
 large steps. Outputs are always reported in the lab frame.
 
 This module holds the integration loop: run planning, advancing between records with chart
-checks, the blow-up check, recording, and the frame adaptation (it changes the right-hand
-side, so it restarts the stepper like a re-centred chart). The records and their files
+checks, the blow-up check, recording, and the frame adaptation (a change of coordinates like
+a re-centred chart: a stepper with ``carry`` maps its history into the new coordinates, the
+others restart). The records and their files
 (parts, checkpoints) are :mod:`flagellum.trajectory`.
 
 Example
@@ -48,12 +49,17 @@ from .trajectory import COMPLETE, OutputError, RunFiles, Trajectory
 MAX_STRAIN = 0.5  #: a bond stretched or compressed by more than this is a blow-up
 MAX_RECORDS = 10**6  #: records per run (memory of the returned trajectory)
 MIN_SPAN = 1e-9  #: shortest run [s]: CVODE cannot step across a span at the rounding of t
-#: re-centre a chart (and restart the integrator) when t·u falls below this. The reference
-#: vector's parallel transport from the pole u turns like 1/(1 + t·u), and tangents left
-#: until t·u < −0.5 made both adaptive integrators grind at h ≈ 1e-9–1e-8 s in a whirling
-#: lab-frame run (load sphere, M = 4.37 pN·µm: 20 000 steps per 1-ms chunk); re-centred at 90°
-#: the same run takes ≤ 200 steps per chunk (docs/benchmarks.md, "Stalls")
+#: re-centre a chart when t·u falls below this. The reference vector's parallel transport
+#: from the pole u turns like 1/(1 + t·u), and tangents left until t·u < −0.5 made both
+#: adaptive integrators grind at h ≈ 1e-9–1e-8 s in a whirling lab-frame run (load sphere,
+#: M = 4.37 pN·µm: 20 000 steps per 1-ms chunk); re-centred at 90° the same run takes ≤ 200
+#: steps per chunk (docs/benchmarks.md, "Stalls")
 CHART_LIMIT = 0.0
+#: carry an adaptive stepper's history through a re-centred chart or a change of the frame's
+#: rate (a smooth change of coordinates, :meth:`RodModel.change_coordinates`) instead of
+#: restarting it at order 1 (steppers with a ``carry`` method: the Numba BDF;
+#: docs/numerics.md, "Chart and frame changes without a restart")
+CARRY_HISTORY = True
 
 
 @dataclass(frozen=True)
@@ -455,8 +461,8 @@ class Simulator:
 
     def _advance(self, stepper, t_target: float) -> np.ndarray:
         """Advance to t_target in chunks short enough that no tangent can turn by more than
-        ~1/2 rad between chart checks (charts are re-centred, and the integrator restarted,
-        only when a tangent has left its chart by more than 90°)."""
+        ~1/2 rad between chart checks (charts are re-centred only when a tangent has left its
+        chart by more than 90°; the stepper carries its history through, :meth:`_carry`)."""
         rate = max(abs(self.model.omega_frame), 100.0)
         if self._last_motor is not None:  # measured motor speed, capped: transients spike it
             rate = max(rate, min(abs(self._last_motor[3]), 3.0 * self._omega_scale))
@@ -488,12 +494,33 @@ class Simulator:
             t_prev = stepper.t
             y = self._advance_chunk(stepper, t_next)
             reset = self.polymorphism is not None and self._transform(y, t_next - t_prev)
-            if t_next < t_target and self.model.rechart(y, threshold=CHART_LIMIT):
-                self.model.refresh_mobility(y, force=True)
-                reset = True
+            charts = self.model.charts()
+            moved = t_next < t_target and self.model.rechart(y, threshold=CHART_LIMIT)
             if reset or switch is not None:
+                if moved:
+                    self.model.refresh_mobility(y, force=True)
                 stepper.reset(t_next, y)
+            elif moved:
+                self._carry(stepper, t_next, y, charts, self.model.omega_frame)
         return y
+
+    def _carry(self, stepper, t: float, y: np.ndarray, charts, omega: float) -> None:
+        """Continue ``stepper`` at (t, y) after the charts moved from ``charts`` (poles,
+        reference vectors, twists) and the frame's rate from ``omega`` to the model's:
+        with its history mapped into the new coordinates where it can carry it
+        (:data:`CARRY_HISTORY`), else restarted. A past state at time s is turned by
+        −(Ω' − Ω)(s − t) about e_z (the frame angle is continuous at t) and its angles are
+        measured against the new charts (:meth:`RodModel.change_coordinates`)."""
+        m = self.model
+        carry = getattr(stepper, "carry", None)
+        if not CARRY_HISTORY or carry is None or m.cell or not m.hydrodynamics.is_local:
+            m.refresh_mobility(y, force=True)
+            stepper.reset(t, y)
+            return
+        d_omega = m.omega_frame - omega
+        moved = np.any(charts[0] != m.ref_u, axis=1) | np.any(charts[1] != m.ref_e, axis=1)
+        only = None if d_omega != 0.0 else moved
+        carry(t, y, lambda s, ys: m.change_coordinates(ys, charts, -d_omega * (s - t), only))
 
     def _advance_chunk(self, stepper, t_next: float) -> np.ndarray:
         """One chunk; if the stepper fails, once more from the chunk's start after re-centring
@@ -558,7 +585,8 @@ class Simulator:
     def _adapt_frame(self, buf) -> bool:
         """Co-rotating frame (frame='auto'): follow the motor speed once it has settled; in
         unsteady states (buckled, oscillating) follow its mean roughly (within 25 %), which
-        keeps the integrator restarts rare while the filament stays slow in that frame."""
+        keeps the changes (restarts of the steppers without ``carry``) rare while the filament
+        stays slow in that frame."""
         if self.solver.frame != "auto" or len(buf["motor_angle"]) < 5:
             return False
         t = np.array(buf["t"][-5:])
@@ -644,8 +672,10 @@ class Simulator:
                 self.t, self.y = float(tk), y
                 good = (self.t, self.y.copy(), self.frame_angle)
                 self._record(buf)
-                changed = self.model.rechart(self.y, threshold=CHART_LIMIT)
-                changed |= self._adapt_frame(buf)
+                charts, omega = self.model.charts(), self.model.omega_frame
+                moved = self.model.rechart(self.y, threshold=CHART_LIMIT)
+                moved |= self._adapt_frame(buf)
+                changed = False
                 if bar is not None:
                     bar.update(1)
                 if (i + 1) % flush_every == 0 and i + 1 < len(times):
@@ -656,6 +686,8 @@ class Simulator:
                 if changed:
                     self.model.refresh_mobility(self.y, force=True)
                     stepper.reset(self.t, self.y)
+                elif moved:
+                    self._carry(stepper, self.t, self.y, charts, omega)
         except OutputError:
             raise  # the parts and the last checkpoint stay as they are
         except SimulationError as exc:

@@ -58,6 +58,13 @@ class Stepper(Protocol):
         Reset at equal (t, y) and advancing must give the same result as a fresh stepper
         built there with the current :attr:`rng_state` (resume from a checkpoint relies
         on it).
+
+    Optional: ``carry(t, y, transform) -> bool``
+        Continue at (t, y) after a smooth change of the state's coordinates (a re-centred
+        chart, a change of the frame's rate) with the history mapped by ``transform(times,
+        values)`` (rows of states at those times, into the new coordinates), or reset and
+        return False where it cannot. The simulator calls it instead of ``reset`` at such
+        changes when a stepper has it (:class:`~flagellum.integrate.bdf.BdfStepper`).
     """
 
     t: float

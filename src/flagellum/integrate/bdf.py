@@ -372,6 +372,11 @@ def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, back
     return 0
 
 
+def _difference_matrix(m: int) -> np.ndarray:
+    """P[j, i] = (−1)^i C(j, i): values y_{n−j} from backward differences ∇^i y_n and back."""
+    return np.array([[(-1.0) ** i * math.comb(j, i) for i in range(m)] for j in range(m)])
+
+
 def drive_table(motor, t_end: float) -> tuple:
     """The arguments of :func:`drive_value` for ``motor`` up to ``t_end`` [s] (reversal
     times drawn that far)."""
@@ -476,6 +481,33 @@ class BdfStepper:
         self.y = np.array(y0, float)
         self._ist[I_STARTED] = 0  # started lazily: the first advance sees the current rhs
         self._frozen.reset(t0)
+
+    def carry(self, t0: float, y0: np.ndarray, transform, fresh_jacobian: bool = False) -> bool:
+        """Continue at (t0, y0) after a smooth change of the state's coordinates (a chart
+        re-centred, the frame's rate changed) without restarting: the history is mapped
+        into the new coordinates and order and step size are kept. ``transform(times,
+        values)``: the states ``values`` (one row per time) in the new coordinates. The
+        differences D[:k+2] are those of the values y_{n−j} = y(t_n − j h), j = 0 … k + 1, of
+        the interpolating polynomial (∇^j y_n = Σ_i (−1)^i C(j, i) y_{n−i}, a matrix that is
+        its own inverse): the values are mapped and the differences of their changes added.
+        The Jacobian is kept (stale: the first Newton failure renews it) unless
+        ``fresh_jacobian``. Returns False, after a :meth:`reset`, where the history is not
+        carried (not started yet; a frozen nonlocal mobility, rebuilt at such changes)."""
+        if self._ist[I_STARTED] == 0 or self._frozen.active:
+            self.reset(t0, y0)
+            return False
+        order, h, tn = int(self._ist[I_ORDER]), float(self._st[S_H]), float(self._st[S_T])
+        m = order + 2
+        P = _difference_matrix(m)
+        D = self._D
+        values = P @ D[:m]
+        change = transform(tn - h * np.arange(m), values) - values
+        D[:m] += P @ change  # the differences of the changes, added: no rounding of large y
+        self.t, self.y = float(t0), np.array(y0, float)
+        self._ist[I_JAC_CUR] = 0
+        if fresh_jacobian:
+            self._ist[I_JAC_OK] = 0
+        return True
 
     def advance(self, t: float) -> np.ndarray:
         if not self._frozen.active:

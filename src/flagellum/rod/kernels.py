@@ -196,6 +196,39 @@ def rechart_all(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def change_coordinates(Y, n, ref_u0, ref_e0, ref_u1, ref_e1, angles, only, OUT, T, E1, E2, LEN,
+                       S, A1):
+    """OUT[k] = the state Y[k] given in the charts (ref_u0, ref_e0), in the charts (ref_u1,
+    ref_e1) and in coordinates turned by ``angles[k]`` about e_z (positions and u0 turned, the
+    charts fixed in the new coordinates): the same material frames e1, so θ_i changes by the
+    angle between the two reference vectors at the tangent, taken on the branch nearest θ_i;
+    only the frames with ``only[i]`` are measured anew (θ of the others copied). The arrays
+    after ``OUT`` are scratch (see :func:`frames`)."""
+    E = np.empty((n + 1, 3))
+    for k in range(Y.shape[0]):
+        y, out = Y[k], OUT[k]
+        frames(y, n, ref_u0, ref_e0, T, E1, E2, LEN, S, A1)
+        c, s = math.cos(angles[k]), math.sin(angles[k])
+        out[:] = y
+        for i in range(n + 2):  # u0, then the beads
+            o = 0 if i == 0 else 3 + 4 * (i - 1)
+            out[o], out[o + 1] = c * y[o] - s * y[o + 1], s * y[o] + c * y[o + 1]
+        for i in range(n + 1):
+            E[i, 0], E[i, 1], E[i, 2] = c * E1[i, 0] - s * E1[i, 1], s * E1[i, 0] + c * E1[i, 1], E1[i, 2]
+        frames(out, n, ref_u1, ref_e1, T, E1, E2, LEN, S, A1)
+        for i in range(n + 1):
+            if not only[i]:
+                continue
+            tx, ty, tz = T[i, 0], T[i, 1], T[i, 2]
+            ax, ay, az = A1[i, 0], A1[i, 1], A1[i, 2]
+            bx, by, bz = _cross(tx, ty, tz, ax, ay, az)
+            raw = math.atan2(E[i, 0] * bx + E[i, 1] * by + E[i, 2] * bz,
+                             E[i, 0] * ax + E[i, 1] * ay + E[i, 2] * az)
+            th = y[6 + 4 * i]
+            out[6 + 4 * i] = th + ((raw - th + math.pi) % (2.0 * math.pi) - math.pi)
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def reference_twists(n, T, A1, out):
     """Raw reference twist m_b ∈ (−π, π] of every joint (a, b) (see :func:`elastic`)."""
     for b in range(1, n + 1):

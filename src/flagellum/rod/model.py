@@ -101,6 +101,8 @@ class RodModel:
         self._solved_drive = self.motor.drive != "torque"  #: the kernel solves for the torque
         # ΔM over the beads, or a cell's slots (V, beads 1 … n, Ω) (hydro.dynamics.cell_correction)
         self._ws = K.workspace(self.n, 3 * (n1 + self.cell) if self._nonlocal else 0)
+        #: scratch frames of :meth:`change_coordinates` (T, E1, E2, LEN, S, A1)
+        self._scratch = tuple(np.zeros((n1, 3)) if k != 3 else np.zeros(n1) for k in range(6))
         self._frozen = None  #: bead positions the nonlocal correction ΔM was built at
         #: build ΔM from the symmetric part of the nonlocal mobility (a thermal stepper sets it)
         self.symmetric_mobility = False
@@ -236,6 +238,24 @@ class RodModel:
         self.ref_u[bad] = w.T[bad]
         self.ref_e[bad] = w.A1[bad]
         return True
+
+    def change_coordinates(self, y: np.ndarray, charts, angle=0.0, only=None) -> np.ndarray:
+        """The state ``y``, given in the charts ``charts`` = (poles, reference vectors), in
+        the model's current charts and in coordinates turned by ``angle`` [rad] about e_z
+        (positions and the hook tangent turned, the charts kept as they are in the new
+        coordinates): the same material frames, so the same physical state. ``y`` may be a
+        stack of states (k, size) with ``angle`` one per state. ``only``: the frames whose θ
+        can change (a boolean (N+1,) mask; None: all). Not for a cell body (its orientation
+        would turn too)."""
+        if self.cell:
+            raise ValueError("change_coordinates: not for a cell body")
+        Y = np.atleast_2d(np.asarray(y, float))
+        out = np.empty_like(Y)
+        angles = np.broadcast_to(np.asarray(angle, float), (len(Y),)).copy()
+        mask = np.ones(self.n + 1, np.bool_) if only is None else np.asarray(only, np.bool_)
+        K.change_coordinates(Y, self.n, np.asarray(charts[0], float), np.asarray(charts[1], float),
+                             self.ref_u, self.ref_e, angles, mask, out, *self._scratch)
+        return out.reshape(np.shape(y))
 
     def charts(self):
         """(poles, reference vectors, reference twists): everything besides y that the

@@ -126,6 +126,13 @@ def _ok(runs):
     return [r for r in runs if "error" not in r]
 
 
+def _recovered(runs):
+    """The runs whose filament holds the first form in at least half the joints at the end."""
+    from ..analysis.tumble import HALF
+
+    return [r for r in runs if not r.get("normal_fraction_final", 1.0) < HALF]
+
+
 def analyse(data: TumbleData) -> dict:
     """Mean, spread and distribution of the tumble angles
     (:func:`~flagellum.analysis.tumble.angle_distribution`), speeds and times over the
@@ -133,22 +140,26 @@ def analyse(data: TumbleData) -> dict:
     from ..analysis.tumble import angle_distribution
 
     ok = _ok(data.runs)
-    dist = angle_distribution([r["tumble_angle_deg"] for r in ok])
+    rec = _recovered(ok)
+    # a tumble angle is between two runs: a filament that has not returned to normal by the
+    # end of the record has no run after the tumble (it pulls the cell), so it is left out
+    dist = angle_distribution([r["tumble_angle_deg"] for r in rec])
 
-    def mean(key):
-        v = np.array([r.get(key, math.nan) for r in ok], float)
+    def mean(key, runs=ok):
+        v = np.array([r.get(key, math.nan) for r in runs], float)
         v = v[np.isfinite(v)]
         return float(v.mean()) if len(v) else math.nan
 
     return {"runs": len(data.runs), "failed": len(data.runs) - len(ok),
+            "not_recovered": len(ok) - len(rec), "angles": len(rec),
             "tumble_angle_mean_deg": dist["mean"], "tumble_angle_std_deg": dist["sd"],
             "tumble_angle_median_deg": dist["median"], "tumble_angle_q25_deg": dist["q25"],
             "tumble_angle_q75_deg": dist["q75"], "tumble_angle_mean_cos": dist["mean_cos"],
-            "tumble_angle_max_deg": (float(max(r["tumble_angle_deg"] for r in ok))
-                                     if ok else math.nan),
+            "tumble_angle_max_deg": (float(max(r["tumble_angle_deg"] for r in rec))
+                                     if rec else math.nan),
             "histogram_edges_deg": dist["edges"], "histogram_counts": dist["counts"],
             "control_angle_deg": data.control.get("tumble_angle_deg", math.nan),
-            "speed_before": mean("speed_before"), "speed_after": mean("speed_after"),
+            "speed_before": mean("speed_before"), "speed_after": mean("speed_after", rec),
             "transform_time": mean("transform_time"), "recovery_time": mean("recovery_time"),
             "transformed_fraction_max": mean("transformed_fraction_max"),
             "curly1_reached": sum(1 for r in ok if r.get("peak_curly1", 0) > 0.5)}
@@ -179,8 +190,13 @@ def plot(data: TumbleData, stats: dict, quality: str, out_dir: Path) -> list[Pat
         ax[0].set_ylabel("share of the joints")
         ax[0].set_title(f"(a) one tumble, reversed for {show['duration']:g} s", fontsize=10)
         ax[0].legend(fontsize=7, loc="center left")
+    rec = _recovered(ok)
     for r in ok:
-        ax[1].plot(r["duration"], r["tumble_angle_deg"], "o", color="tab:blue", ms=5)
+        back = r in rec
+        ax[1].plot(r["duration"], r["tumble_angle_deg"], "o", color="tab:blue", ms=5,
+                   mfc="tab:blue" if back else "none")
+    if len(rec) < len(ok):
+        ax[1].plot([], [], "o", color="tab:blue", mfc="none", label="not back to normal at the end")
     ctrl = data.control.get("tumble_angle_deg", math.nan)
     if math.isfinite(ctrl):
         ax[1].plot(0.0, ctrl, "s", mfc="none", color="tab:blue", label="no reversal")
@@ -193,7 +209,7 @@ def plot(data: TumbleData, stats: dict, quality: str, out_dir: Path) -> list[Pat
     ax[1].set_ylim(0, 180)
     ax[1].legend(fontsize=7)
     ax[1].set_title("(b) tumble angle", fontsize=10)
-    ang = [r["tumble_angle_deg"] for r in ok]
+    ang = [r["tumble_angle_deg"] for r in rec]
     ax[2].hist(ang, bins=np.linspace(0, 180, 19), color="tab:blue", alpha=0.8, label="ours")
     ax[2].axvline(BERG_BROWN_ANGLE, color="tab:red", lw=1.2, label="Berg & Brown 1972 mean")
     ax[2].set_xlabel("tumble angle [deg]")
@@ -237,7 +253,8 @@ def compare(data: TumbleData, stats: dict, quality: str) -> Comparison:
     cmp = Comparison("tumble", "run and tumble of a cell with one polymorphic flagellum", quality)
     cmp.add("mean tumble angle (E. coli, Berg & Brown, Nature 239, 500 (1972))", BERG_BROWN_ANGLE,
             stats["tumble_angle_mean_deg"], "deg",
-            f"mean over {stats['runs'] - stats['failed']} runs (durations × phases), swimming "
+            f"mean over the {stats['angles']} runs whose filament is back to normal at the end "
+            f"(of {stats['runs'] - stats['failed']}: durations × phases), swimming "
             "directions over 0.1 s before and at the end")
     cmp.add("sd of the tumble angle (Berg & Brown 1972)", BERG_BROWN_SD, stats["tumble_angle_std_deg"],
             "deg", "over the same runs (deterministic: spread from durations and phases)")
@@ -271,6 +288,11 @@ def compare(data: TumbleData, stats: dict, quality: str) -> Comparison:
              "bundle and pulls the body round. A cell with one flagellum has no bundle to "
              "break up, so a small tumble angle is what this model can give; the comparison "
              "with 68° shows the size of what is missing, not a fit.")
+    if stats["not_recovered"]:
+        cmp.note(f"{stats['not_recovered']} run(s) left out of the angles: the filament was not "
+                 "back to normal at the end of the record (" + ", ".join(
+                     f"{r['duration']:g} s" for r in _ok(data.runs) if r not in _recovered(_ok(data.runs)))
+                 + " reversal), so there is no run after the tumble to measure a direction from.")
     for r in data.runs:
         if "error" in r:
             cmp.note(f"The run reversed for {r['duration']:g} s (phase {r['phase']:g} s) failed "

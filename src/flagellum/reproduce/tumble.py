@@ -44,8 +44,8 @@ TORQUE = 1.3
 #: the polymorphic landscape of this target: the package defaults (barrier 0.25 pN for both
 #: pairs, fitted to Hotani's threshold of normal → semicoiled; walls 0.5 pN·µm², equal wells)
 LANDSCAPE = {"forms": ("normal", "semicoiled", "curly1"), "barrier": 0.25, "wall_stiffness": 0.5}
-#: forward run before the reversal and after it [s] (after: the recovery from curly-1 takes
-#: up to ≈ 0.35 s, then the averaging window); averaging window of each run [s]
+#: forward run before the reversal and after it [s] (after: the recovery takes up to 0.41 s,
+#: docs/polymorphism.md, then the averaging window); averaging window of each run [s]
 RUN_BEFORE, RUN_AFTER, WINDOW = 0.15, 0.6, 0.1
 #: reversal durations [s] (CW intervals; E. coli's are ~0.1–1 s) and the shifts of the
 #: reversal time [s] (phases of the body's helical path, whose period is ≈ 20 ms)

@@ -251,20 +251,21 @@ class EndLoad:
 
 
 #: Polymorphic forms of the flagellar filament: name → (pitch [µm], helix diameter [µm],
-#: handedness relative to the normal form: +1 the same, −1 the opposite). The normal form
-#: is left-handed, semicoiled and curly-1 right-handed (Calladine, J. Mol. Biol. 118, 457
-#: (1978); Hotani, J. Mol. Biol. 156, 791 (1982)); pitch and diameter of E. coli filaments:
-#: Turner, Ryu & Berg, J. Bacteriol. 182, 2793 (2000) and Darnton & Berg, Biophys. J. 92,
-#: 2230 (2007), Table 1 (see docs/polymorphism.md for how these were taken). The normal form
-#: of a :class:`Polymorphism` is the filament's own helix (κ0, τ0; the paper's: pitch
-#: 2.16 µm, diameter 0.43 µm), so that a one-form filament is the paper's.
+#: handedness relative to the normal form: +1 the same, −1 the opposite). The E. coli forms
+#: of a tumble as N. C. Darnton, L. Turner, S. Rojevsky & H. C. Berg, J. Bacteriol. 189, 1756
+#: (2007), introduction, describe them: normal "a left-handed helix with a pitch of 2.3 µm
+#: and a diameter of 0.4 µm", semicoiled "a right-handed helix with half the normal pitch but
+#: normal amplitude", curly 1 "a right-handed helix with half the normal pitch and half the
+#: normal amplitude" (amplitude: the helix radius). The normal form of a :class:`Polymorphism`
+#: is the filament's own helix (κ0, τ0; the paper's: pitch 2.16 µm, diameter 0.43 µm), so
+#: that a one-form filament is the paper's.
 POLYMORPHIC_FORMS = {
-    "normal": (2.22, 0.41, 1),
-    "semicoiled": (1.11, 0.40, -1),
-    "curly1": (1.04, 0.38, -1),
-    # the form before normal in Calladine's sequence, left-handed like it, of nearly zero
-    # pitch (Darnton & Berg 2007, Table 1, from recall, unverified: a placeholder of that
-    # description, see docs/polymorphism.md)
+    "normal": (2.3, 0.4, 1),
+    "semicoiled": (1.15, 0.4, -1),
+    "curly1": (1.15, 0.2, -1),
+    # the form before normal in Calladine's sequence (Calladine, J. Mol. Biol. 118, 457
+    # (1978)), left-handed like it, of nearly zero pitch: a placeholder of that description,
+    # not numbers read from an article (docs/polymorphism.md)
     "coiled": (0.3, 0.9, 1),
 }
 

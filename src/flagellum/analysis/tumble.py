@@ -124,4 +124,28 @@ def tumble(t, position, axis, reversal: tuple[float, float], window: float = WIN
                          peak_fractions=peaks, sequence=sequence)
 
 
-__all__ = ["HALF", "TumbleSummary", "WINDOW", "angle_deg", "mean_velocity", "tumble"]
+#: bin edges [deg] of the tumble-angle histogram (20° wide: the sweeps hold a few tens of runs)
+BINS = tuple(range(0, 181, 20))
+
+
+def angle_distribution(angles_deg, bins=BINS) -> dict:
+    """Statistics of a set of tumble angles [deg] (NaNs dropped): count, mean, sample standard
+    deviation, median, quartiles, the mean cosine ⟨cos θ⟩ (the persistence of direction
+    over a tumble: 0 for directions drawn at random on the sphere, whose angles then have
+    the mean 90° and the standard deviation √(π²/4 − 2) = 39.2°) and the histogram
+    (``edges`` [deg], ``counts``)."""
+    a = np.asarray(angles_deg, float).ravel()
+    a = a[np.isfinite(a)]
+    edges = np.asarray(bins, float)
+    out = {"n": int(a.size), "edges": edges.tolist(),
+           "counts": np.histogram(a, bins=edges)[0].astype(int).tolist()}
+    if a.size == 0:
+        return {**out, **dict.fromkeys(("mean", "sd", "median", "q25", "q75", "mean_cos"), math.nan)}
+    q25, med, q75 = np.percentile(a, (25, 50, 75))
+    return {**out, "mean": float(a.mean()), "sd": float(a.std(ddof=1)) if a.size > 1 else math.nan,
+            "median": float(med), "q25": float(q25), "q75": float(q75),
+            "mean_cos": float(np.cos(np.radians(a)).mean())}
+
+
+__all__ = ["BINS", "HALF", "TumbleSummary", "WINDOW", "angle_deg", "angle_distribution",
+           "mean_velocity", "tumble"]

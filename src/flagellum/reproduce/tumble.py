@@ -11,11 +11,12 @@ d (and over the phase of the swimming at which the motor reverses: the body has 
 Brownian motion, so this is what spreads the angles) gives the tumble-angle distribution,
 compared with the measured mean of Berg & Brown (1972).
 
-The landscape (:data:`LANDSCAPE`) is not the package default: a barrier of 0.1 pN and a soft
-wall, chosen (not fitted to a measurement) before the defaults were fitted to Hotani's
-torque thresholds. With it a semicoiled domain nucleates at the hook under the reversed
-motor and grows along the filament, and a normal domain does the same back at forward
-torque; the fitted defaults (barrier 0.25 pN) do the same on this cell (docs/polymorphism.md).
+The landscape (:data:`LANDSCAPE`) is the package default (barrier 0.25 pN, fitted to Hotani's
+threshold torque of normal → semicoiled; soft walls). With the forms' geometry of Darnton et
+al. (2007) (:data:`flagellum.params.POLYMORPHIC_FORMS`) a semicoiled domain nucleates at the
+hook under the reversed motor and grows along the filament, a curly-1 domain follows it (the
+reversed motor's twist drives semicoiled towards the more twisted curly-1), and back at
+forward torque the filament returns to normal (docs/polymorphism.md).
 """
 
 from __future__ import annotations
@@ -40,10 +41,12 @@ BODY = {"body_radius": 0.44, "body_aspect": 1.25 / 0.44, "hook": "elastic", "hoo
 #: the motor torque [pN·µm]: the stall torque of the E. coli motor (H. C. Berg, Annu. Rev.
 #: Biochem. 72, 19 (2003)), on whose plateau the swimming cell's motor runs (docs/motor.md)
 TORQUE = 1.3
-#: the polymorphic landscape of this target (see the module docstring)
-LANDSCAPE = {"forms": ("normal", "semicoiled", "curly1"), "barrier": 0.1, "wall_stiffness": 0.5}
-#: forward run before the reversal and after it [s]; averaging window of each run [s]
-RUN_BEFORE, RUN_AFTER, WINDOW = 0.15, 0.4, 0.1
+#: the polymorphic landscape of this target: the package defaults (barrier 0.25 pN for both
+#: pairs, fitted to Hotani's threshold of normal → semicoiled; walls 0.5 pN·µm², equal wells)
+LANDSCAPE = {"forms": ("normal", "semicoiled", "curly1"), "barrier": 0.25, "wall_stiffness": 0.5}
+#: forward run before the reversal and after it [s] (after: the recovery takes up to 0.41 s,
+#: docs/polymorphism.md, then the averaging window); averaging window of each run [s]
+RUN_BEFORE, RUN_AFTER, WINDOW = 0.15, 0.6, 0.1
 #: reversal durations [s] (CW intervals; E. coli's are ~0.1–1 s) and the shifts of the
 #: reversal time [s] (phases of the body's helical path, whose period is ≈ 20 ms)
 DURATIONS = {"quick": (0.1, 0.2, 0.35), "full": (0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0)}
@@ -123,25 +126,43 @@ def _ok(runs):
     return [r for r in runs if "error" not in r]
 
 
-def analyse(data: TumbleData) -> dict:
-    """Mean and spread of the tumble angles, speeds and times over the successful runs."""
-    ok = _ok(data.runs)
-    ang = np.array([r["tumble_angle_deg"] for r in ok], float)
+def _recovered(runs):
+    """The runs whose filament holds the first form in at least half the joints at the end."""
+    from ..analysis.tumble import HALF
 
-    def mean(key):
-        v = np.array([r[key] for r in ok], float)
+    return [r for r in runs if not r.get("normal_fraction_final", 1.0) < HALF]
+
+
+def analyse(data: TumbleData) -> dict:
+    """Mean, spread and distribution of the tumble angles
+    (:func:`~flagellum.analysis.tumble.angle_distribution`), speeds and times over the
+    successful runs."""
+    from ..analysis.tumble import angle_distribution
+
+    ok = _ok(data.runs)
+    rec = _recovered(ok)
+    # a tumble angle is between two runs: a filament that has not returned to normal by the
+    # end of the record has no run after the tumble (it pulls the cell), so it is left out
+    dist = angle_distribution([r["tumble_angle_deg"] for r in rec])
+
+    def mean(key, runs=ok):
+        v = np.array([r.get(key, math.nan) for r in runs], float)
         v = v[np.isfinite(v)]
         return float(v.mean()) if len(v) else math.nan
 
     return {"runs": len(data.runs), "failed": len(data.runs) - len(ok),
-            "tumble_angle_mean_deg": float(np.mean(ang)) if len(ang) else math.nan,
-            "tumble_angle_std_deg": float(np.std(ang, ddof=1)) if len(ang) > 1 else math.nan,
-            "tumble_angle_max_deg": float(np.max(ang)) if len(ang) else math.nan,
+            "not_recovered": len(ok) - len(rec), "angles": len(rec),
+            "tumble_angle_mean_deg": dist["mean"], "tumble_angle_std_deg": dist["sd"],
+            "tumble_angle_median_deg": dist["median"], "tumble_angle_q25_deg": dist["q25"],
+            "tumble_angle_q75_deg": dist["q75"], "tumble_angle_mean_cos": dist["mean_cos"],
+            "tumble_angle_max_deg": (float(max(r["tumble_angle_deg"] for r in rec))
+                                     if rec else math.nan),
+            "histogram_edges_deg": dist["edges"], "histogram_counts": dist["counts"],
             "control_angle_deg": data.control.get("tumble_angle_deg", math.nan),
-            "speed_before": mean("speed_before"), "speed_after": mean("speed_after"),
+            "speed_before": mean("speed_before"), "speed_after": mean("speed_after", rec),
             "transform_time": mean("transform_time"), "recovery_time": mean("recovery_time"),
             "transformed_fraction_max": mean("transformed_fraction_max"),
-            "curly1_reached": sum(1 for r in ok if r.get("peak_curly1", 0) > 0)}
+            "curly1_reached": sum(1 for r in ok if r.get("peak_curly1", 0) > 0.5)}
 
 
 def plot(data: TumbleData, stats: dict, quality: str, out_dir: Path) -> list[Path]:
@@ -169,8 +190,13 @@ def plot(data: TumbleData, stats: dict, quality: str, out_dir: Path) -> list[Pat
         ax[0].set_ylabel("share of the joints")
         ax[0].set_title(f"(a) one tumble, reversed for {show['duration']:g} s", fontsize=10)
         ax[0].legend(fontsize=7, loc="center left")
+    rec = _recovered(ok)
     for r in ok:
-        ax[1].plot(r["duration"], r["tumble_angle_deg"], "o", color="tab:blue", ms=5)
+        back = r in rec
+        ax[1].plot(r["duration"], r["tumble_angle_deg"], "o", color="tab:blue", ms=5,
+                   mfc="tab:blue" if back else "none")
+    if len(rec) < len(ok):
+        ax[1].plot([], [], "o", color="tab:blue", mfc="none", label="not back to normal at the end")
     ctrl = data.control.get("tumble_angle_deg", math.nan)
     if math.isfinite(ctrl):
         ax[1].plot(0.0, ctrl, "s", mfc="none", color="tab:blue", label="no reversal")
@@ -183,7 +209,7 @@ def plot(data: TumbleData, stats: dict, quality: str, out_dir: Path) -> list[Pat
     ax[1].set_ylim(0, 180)
     ax[1].legend(fontsize=7)
     ax[1].set_title("(b) tumble angle", fontsize=10)
-    ang = [r["tumble_angle_deg"] for r in ok]
+    ang = [r["tumble_angle_deg"] for r in rec]
     ax[2].hist(ang, bins=np.linspace(0, 180, 19), color="tab:blue", alpha=0.8, label="ours")
     ax[2].axvline(BERG_BROWN_ANGLE, color="tab:red", lw=1.2, label="Berg & Brown 1972 mean")
     ax[2].set_xlabel("tumble angle [deg]")
@@ -204,15 +230,20 @@ UNITS = {"duration": "s", "phase": "s", "tumble_angle_deg": "deg", "axis_tumble_
 
 
 def write(out_dir: Path, data: TumbleData, quality: str) -> list[Path]:
-    """``tumbles.csv`` (one row per run, the control last) and ``tumble.h5`` (with the time
-    series)."""
+    """``tumbles.csv`` (one row per run, the control last), ``tumble_angles.csv`` (the
+    histogram of the reversed runs' tumble angles) and ``tumble.h5`` (with the time series)."""
     rows = _ok(data.runs) + ([data.control] if "error" not in data.control else [])
     cols = {c: [r.get(c, math.nan) for r in rows] for c in COLUMNS}
     groups = {"tumbles": {c: np.array(v, dtype=object if c == "sequence" else float)
                           for c, v in cols.items()}}
     for i, r in enumerate(rows):
         groups[f"run_{i:02d}"] = {k: np.asarray(v) for k, v in r["series"].items()}
+    from ..analysis.tumble import angle_distribution
+
+    dist = angle_distribution([r["tumble_angle_deg"] for r in _ok(data.runs)])
+    hist = {"angle_low": dist["edges"][:-1], "angle_high": dist["edges"][1:], "runs": dist["counts"]}
     return [write_csv(out_dir / "tumbles.csv", cols, UNITS),
+            write_csv(out_dir / "tumble_angles.csv", hist, {"angle_low": "deg", "angle_high": "deg"}),
             write_h5(out_dir / "tumble.h5", groups, {"quality": quality, "length": LENGTH,
                                                       "torque": TORQUE})]
 
@@ -222,10 +253,18 @@ def compare(data: TumbleData, stats: dict, quality: str) -> Comparison:
     cmp = Comparison("tumble", "run and tumble of a cell with one polymorphic flagellum", quality)
     cmp.add("mean tumble angle (E. coli, Berg & Brown, Nature 239, 500 (1972))", BERG_BROWN_ANGLE,
             stats["tumble_angle_mean_deg"], "deg",
-            f"mean over {stats['runs'] - stats['failed']} runs (durations × phases), swimming "
+            f"mean over the {stats['angles']} runs whose filament is back to normal at the end "
+            f"(of {stats['runs'] - stats['failed']}: durations × phases), swimming "
             "directions over 0.1 s before and at the end")
     cmp.add("sd of the tumble angle (Berg & Brown 1972)", BERG_BROWN_SD, stats["tumble_angle_std_deg"],
             "deg", "over the same runs (deterministic: spread from durations and phases)")
+    cmp.add("median and quartiles of the tumble angle", None,
+            f"{stats['tumble_angle_median_deg']:.1f} ({stats['tumble_angle_q25_deg']:.1f}–"
+            f"{stats['tumble_angle_q75_deg']:.1f})", "deg", "over the same runs")
+    cmp.add("mean cosine of the tumble angle (0: direction forgotten)", None,
+            stats["tumble_angle_mean_cos"], "", "over the same runs")
+    cmp.add("runs in which curly-1 held more than half the joints", None,
+            stats["curly1_reached"], "", f"of {stats['runs'] - stats['failed']}")
     cmp.add("tumble angle without reversal (wobble only)", 0.0, stats["control_angle_deg"], "deg",
             "the same windows, motor never reversed")
     cmp.add("swimming speed before (E. coli: 29 ± 6 µm/s, Darnton et al. 2007)", 29.0,
@@ -243,12 +282,17 @@ def compare(data: TumbleData, stats: dict, quality: str) -> Comparison:
              f"(k = {BODY['hook_stiffness']:g} pN·µm), a spheroidal body 2.5 × 0.88 µm, torque "
              f"±{TORQUE:g} pN·µm, RFT, no thermal noise. Landscape: barrier "
              f"{LANDSCAPE['barrier']:g} pN, wall stiffness {LANDSCAPE['wall_stiffness']:g} "
-             "pN·µm², equal well energies (not the package default and not fitted; see "
-             "docs/polymorphism.md).")
+             "pN·µm², equal well energies (the package defaults: the barrier fitted to "
+             "Hotani's −1.1 pN·µm for normal → semicoiled; see docs/polymorphism.md).")
     cmp.note("E. coli tumbles with a bundle of several flagella: the CW filament leaves the "
              "bundle and pulls the body round. A cell with one flagellum has no bundle to "
              "break up, so a small tumble angle is what this model can give; the comparison "
              "with 68° shows the size of what is missing, not a fit.")
+    if stats["not_recovered"]:
+        cmp.note(f"{stats['not_recovered']} run(s) left out of the angles: the filament was not "
+                 "back to normal at the end of the record (" + ", ".join(
+                     f"{r['duration']:g} s" for r in _ok(data.runs) if r not in _recovered(_ok(data.runs)))
+                 + " reversal), so there is no run after the tumble to measure a direction from.")
     for r in data.runs:
         if "error" in r:
             cmp.note(f"The run reversed for {r['duration']:g} s (phase {r['phase']:g} s) failed "

@@ -230,7 +230,7 @@ def test_reversal_transforms_the_cell_s_filament_and_it_recovers():
 
     tr = _cell_run((RUN_BEFORE, RUN_BEFORE + 0.3), RUN_BEFORE + 0.3 + RUN_AFTER, TARGET)
     s = tr.tumble_summary()
-    assert s.reversal_start == 0.15 and s.reversal_end == 0.45
+    assert s.reversal_start == pytest.approx(0.15) and s.reversal_end == pytest.approx(0.45)
     assert s.transformed_fraction_max > 0.9
     assert s.peak_fractions["semicoiled"] > 0.9
     assert s.sequence == ("semicoiled", "curly1") and s.peak_fractions["curly1"] > 0.1

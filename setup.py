@@ -22,12 +22,15 @@ import sys
 from flagellum import _kernel_cache, warmup
 from flagellum.integrate.cache import METHODS
 assert _kernel_cache.PACKAGE_DIR.startswith(sys.argv[1]), _kernel_cache.PACKAGE_DIR
+done = []
 for method in sorted(METHODS, key=lambda m: m != "bdf"):
     try:
         warmup.warm([method])
-        print("compiled", method, file=sys.stderr)
+        done.append(method)
     except Exception as exc:  # a method whose dependencies the build lacks: compiled at first use
-        print("not compiled", method, repr(exc), file=sys.stderr)
+        print("flagellum: not compiled:", method, repr(exc), file=sys.stderr)
+print("flagellum: compiled the kernels of", *done, file=sys.stderr)
+sys.exit(0 if done else 1)
 """
 
 
@@ -39,9 +42,10 @@ class BuildPyWithKernels(build_py):
         lib = os.path.abspath(self.build_lib)
         cache = os.path.join(lib, "flagellum", "_numba_cache")
         os.makedirs(cache, exist_ok=True)
-        # the built package first, then what this build process sees (pip's isolated
-        # build environment: Numba and the rest from build-system.requires)
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join([lib, *filter(None, sys.path)]),
+        # the built package first; pip's isolated build environment (Numba and the rest from
+        # build-system.requires) reaches the child through the environment it set up
+        path = os.pathsep.join(filter(None, [lib, os.environ.get("PYTHONPATH")]))
+        env = dict(os.environ, PYTHONPATH=path,
                    FLAGELLUM_WARMUP="0", PYTHONDONTWRITEBYTECODE="1",
                    OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
         env.pop("NUMBA_CACHE_DIR", None)
@@ -52,7 +56,7 @@ class BuildPyWithKernels(build_py):
                   "the first run will compile them", file=sys.stderr)
             shutil.rmtree(cache, ignore_errors=True)
         else:
-            print(f"flagellum: kernels compiled into {cache} in "
+            print(f"flagellum: kernel cache {cache} built in "
                   f"{time.perf_counter() - t:.0f} s", file=sys.stderr)
 
 

@@ -33,11 +33,15 @@ from numba.core import caching, config
 #: the cache folder inside the package, created by the wheel build
 DIRNAME = "_numba_cache"
 PACKAGE_DIR = os.path.dirname(os.path.abspath(__file__))
+# (Numba 0.68 dropped the underscores of these names)
+_BASE = getattr(caching, "_CacheLocator", None) or getattr(caching, "CacheLocator")
+_IMPL = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl", None)
 
 
 @functools.lru_cache(maxsize=None)
-def _content_hash(path: str, mtime_ns: int, size: int) -> str:
-    # (mtime and size only key the memo, so that an edit in a running process is seen)
+def _content_hash(path: str, *stat_key) -> str:
+    # (the stat fields only key the memo, so that an edit in a running process is seen;
+    # the change time too: an edit that keeps the size and restores the mtime changes it)
     with open(path, "rb") as f:
         return hashlib.sha256(f.read()).hexdigest()
 
@@ -49,11 +53,12 @@ def source_stamp(path: str) -> tuple:
     import numpy
 
     st = os.stat(path)
-    return (_content_hash(path, st.st_mtime_ns, st.st_size), numba.__version__,
+    key = (st.st_mtime_ns, st.st_ctime_ns, st.st_size, st.st_ino)
+    return (_content_hash(path, *key), numba.__version__,
             llvmlite.__version__, numpy.__version__)
 
 
-class PackageCacheLocator(caching._CacheLocator):
+class PackageCacheLocator(_BASE):
     """The cache of a function defined in this package, in ``DIRNAME`` inside the package."""
 
     #: the package whose functions this locator serves (a parameter for the tests)
@@ -91,7 +96,8 @@ class PackageCacheLocator(caching._CacheLocator):
 
 def register() -> None:
     """Put :class:`PackageCacheLocator` first among Numba's locators (once); must run before
-    the first ``njit(cache=True)`` of the package (``flagellum._jit`` does it)."""
-    classes = caching._CacheImpl._locator_classes
-    if PackageCacheLocator not in classes:
+    the first ``njit(cache=True)`` of the package (``flagellum._jit`` does it). A Numba whose
+    caching module has another layout keeps its own locators."""
+    classes = getattr(_IMPL, "_locator_classes", None)
+    if isinstance(classes, list) and PackageCacheLocator not in classes:
         classes.insert(0, PackageCacheLocator)

@@ -15,7 +15,12 @@ run (N = 50, M = 1 pN·µm from rest) of each solver named, then a second run of
   no method: the Numba BDF), the first process's import + first run against a later
   process's, with every Numba compile event timed per function (self time: nested compiles
   subtracted) in the first; ``--src DIR`` runs another copy of the package's source (its
-  ``src`` folder) the same way, alternately with this one, for a paired comparison.
+  ``src`` folder) the same way, alternately with this one, for a paired comparison;
+* ``installed`` (``--installed``, run with the interpreter of an environment where
+  ``pip install .`` installed the package): the same two processes with no
+  ``NUMBA_CACHE_DIR``, so the first one after the install finds the cache the wheel build
+  compiled into the package (``flagellum._kernel_cache``); then, for scale, the ``default``
+  case with the same package (an empty ``NUMBA_CACHE_DIR``: what the first run compiles).
 
 Run: OPENBLAS_NUM_THREADS=1 python benchmarks/bench_compile.py
 Writes benchmarks/bench_compile.json.
@@ -80,8 +85,12 @@ print(json.dumps(out))
 """
 
 
-def child(cache: str, methods, warmup: bool, code: str = CHILD, src: str | None = None) -> dict:
-    env = dict(os.environ, NUMBA_CACHE_DIR=cache, FLAGELLUM_WARMUP="1" if warmup else "0")
+def child(cache: str | None, methods, warmup: bool, code: str = CHILD,
+          src: str | None = None) -> dict:
+    env = dict(os.environ, FLAGELLUM_WARMUP="1" if warmup else "0")
+    env.pop("NUMBA_CACHE_DIR", None)
+    if cache is not None:
+        env["NUMBA_CACHE_DIR"] = cache
     if src:
         env["PYTHONPATH"] = src
     t = time.perf_counter()
@@ -118,16 +127,42 @@ def default_case(src: str | None = None) -> dict:
             / (later["import"] + later["first"])}
 
 
+def installed_case() -> dict:
+    """The ``installed`` case (module docstring): this interpreter's installed package."""
+    info = subprocess.run([sys.executable, "-c", "import os, flagellum._kernel_cache as k; "
+                           "print(k.PACKAGE_DIR, os.path.isdir(os.path.join(k.PACKAGE_DIR, k.DIRNAME)))"],
+                          capture_output=True, text=True, check=True, cwd=HERE).stdout.split()
+    first = child(None, (), warmup=False, code=EVENTS)
+    later = child(None, (), warmup=False, code=EVENTS)
+    return {"package": info[0], "has_built_cache": info[1] == "True",
+            "first_process": first, "later_process": later,
+            "ratio_first_run": first["first"] / later["first"],
+            "ratio_import_and_first_run": (first["import"] + first["first"])
+            / (later["import"] + later["first"])}
+
+
 def main() -> None:
     import argparse
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--default-only", action="store_true", help="only the default case")
     ap.add_argument("--src", default=None, help="another source tree to pair with (its src/)")
+    ap.add_argument("--installed", action="store_true",
+                    help="only the installed case (an environment after `pip install .`)")
     ap.add_argument("--rounds", type=int, default=1)
     ap.add_argument("--out", default=str(HERE / "bench_compile.json"))
     args = ap.parse_args()
     out = {"load_average": load_average(), "run": "N = 50, M = 1, 0.01 s from rest"}
+    if args.installed:
+        out["installed"] = installed_case()
+        print("installed", {k: v for k, v in out["installed"].items() if k.startswith("ratio")},
+              flush=True)
+        out["empty_cache"] = default_case()  # the same package with an empty cache, for scale
+        print("empty_cache", {k: v for k, v in out["empty_cache"].items()
+                              if k.startswith("ratio")}, flush=True)
+        out["load_average_end"] = load_average()
+        Path(args.out).write_text(json.dumps(out, indent=1))
+        return
     rounds = []
     for _ in range(args.rounds):  # alternately: this code, the other (paired)
         r = {"this": default_case()}

@@ -18,6 +18,11 @@ import math
 
 from numba import njit
 
+from . import _kernel_cache
+
+# every kernel module imports this one before its first cache=True kernel
+_kernel_cache.register()
+
 FASTMATH = {"contract", "arcp", "nsz", "afn"}
 
 # Cephes atan (S. L. Moshier): atan x = x + x z P(z)/Q(z), z = x², on |x| ≤ 0.66 after

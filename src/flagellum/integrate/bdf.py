@@ -130,7 +130,10 @@ def _change_d(D, order, factor):
             if c != 0.0:
                 for j in range(n):
                     tmp[i, j] += c * D[k, j]
-    D[:order + 1] = tmp
+    # element loops, not slice assignments: those compile Numba's shape-error text (≈ 3 s)
+    for i in range(order + 1):
+        for j in range(n):
+            D[i, j] = tmp[i, j]
 
 
 #: the Jacobian by the chain rule through the rod kernel's layers where it covers the model
@@ -197,8 +200,9 @@ def bdf_start(t, y, D, st, ist, ka, drive, f, yw, general):
         h1 = (0.01 / max(d1, d2)) ** 0.5
     h = min(100.0 * h0, h1)
     D[:, :] = 0.0
-    D[0] = y
-    D[1] = f * h
+    for i in range(n):  # (element loops: see _change_d)
+        D[0, i] = y[i]
+        D[1, i] = f[i] * h
     st[S_T], st[S_H], st[S_C] = t, h, 0.0
     ist[I_ORDER], ist[I_EQUAL], ist[I_LU_OK], ist[I_JAC_CUR], ist[I_JAC_OK] = 1, 0, 0, 0, 0
     ist[I_RHS] += 2
@@ -270,8 +274,9 @@ def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, back
                 # is below NLS_COEF of the error-test bound on d (scipy's BDF asks 10–100× more
                 # at rtol 1e-4 … 1e-6, and so renews the Jacobian far more often); rate kept
                 tol = NLS_COEF / ERROR_CONST[order]
-                ynew[:] = ypred
-                d[:] = 0.0
+                for j in range(n):  # (element loops: see _change_d)
+                    ynew[j] = ypred[j]
+                    d[j] = 0.0
                 old = 0.0
                 crate = st[S_RATE]
                 diverged = False
@@ -363,7 +368,8 @@ def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, back
         st[S_H] = h
     # y(t_out) from the interpolating polynomial of the last step
     t, h, order = st[S_T], st[S_H], ist[I_ORDER]
-    y_out[:] = D[0]
+    for j in range(n):
+        y_out[j] = D[0, j]
     p = 1.0
     for k in range(order):
         p *= (t_out - (t - h * k)) / (h * (k + 1))

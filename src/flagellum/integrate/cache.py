@@ -1,8 +1,10 @@
 """Whether Numba's cache holds the solvers' kernels, and their warm-up in the background.
 
-The kernels are compiled with ``cache=True``: the first process after an install compiles
-them (the CVODE path, the Numba BDF and the fixed-step implicit scheme each take tens of
-seconds; docs/benchmarks.md, "Compile pause"), later processes load them in ≈ 1 s.
+The kernels are compiled with ``cache=True``. A wheel build compiles them into the package
+(:mod:`flagellum._kernel_cache`); where that cache is missing or stale (an editable install,
+``NUMBA_CACHE_DIR``, other Numba versions or CPU) the first process compiles them (the CVODE
+path, the Numba BDF and the fixed-step implicit scheme each take tens of seconds;
+docs/benchmarks.md, "Compile pause"), later processes load them in ≈ 1 s.
 :func:`warm_in_background` (called when a run makes its stepper) starts
 ``python -m flagellum.warmup`` (:func:`flagellum.warmup.warm`) for the solvers whose kernels
 are not cached yet, in a detached, low-priority process: while the first run compiles its

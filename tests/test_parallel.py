@@ -54,3 +54,31 @@ def test_default_workers(monkeypatch):
     assert parallel.default_workers(2) == 5
     monkeypatch.setenv(parallel.WORKERS_VARIABLE, "many")  # not a number: ignored
     assert parallel.default_workers(1) == 1
+
+
+def test_shared_pool_reuses_its_workers_and_gives_the_same_results():
+    """Inside shared_pool every pmap call runs on the same worker processes (the pids of two
+    calls are one set of two), with the results of a pool per call; errors still reach the
+    caller and the pool stays usable after one."""
+    items = [4.0, 1.0, 9.0, 16.0, 25.0]
+    with parallel.shared_pool(2):
+        assert parallel.pmap(math.sqrt, items, 2, cost=lambda x: x) == [2.0, 1.0, 3.0, 4.0, 5.0]
+        pids = set()
+        for _ in range(3):
+            pids |= set(parallel.pmap(_pid_after_a_while, [0.2, 0.2, 0.2, 0.2], 2))
+        with pytest.raises(ValueError, match="math domain error"):
+            parallel.pmap(math.sqrt, [1.0, -1.0], 2)
+        assert parallel.pmap(math.sqrt, items, 2) == [2.0, 1.0, 3.0, 4.0, 5.0]
+        with parallel.shared_pool(2):  # nested: the same pool
+            pids |= set(parallel.pmap(_pid_after_a_while, [0.2, 0.2], 2))
+    assert len(pids) == 2 and os.getpid() not in pids
+    assert not parallel._SHARED
+    # outside the block a pool per call: new processes
+    assert not set(parallel.pmap(_pid_after_a_while, [0.2, 0.2], 2)) & pids
+
+
+def _pid_after_a_while(seconds: float) -> int:
+    import time
+
+    time.sleep(seconds)
+    return os.getpid()

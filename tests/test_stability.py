@@ -17,7 +17,7 @@ from conftest import assert_one_line_error
 
 from flagellum import Filament, Params, ParameterError, discrete_helix
 from flagellum.analysis.stability import (critical_torque, linear_stability, relative_equilibrium,
-                                          simulated_growth_rate)
+                                          simulated_growth_rate, stability_curve)
 from flagellum.cli.stability import critical_torque as critical_torque_cmd
 from flagellum.cli.stability import stability as stability_cmd
 from flagellum.helix import Helix
@@ -147,6 +147,30 @@ def test_critical_torque_is_the_root_of_lambda():
     assert below.lambda_ < 0 < above.lambda_
     assert c.critical_force == pytest.approx(0.5 * (below.thrust + above.thrust), rel=1e-2)
     assert c.omega == pytest.approx(0.5 * (below.omega + above.omega), rel=1e-2)
+
+
+def test_stability_curve_is_the_cold_start_at_each_torque():
+    """One continuation branch through all torques (warm starts) against a separate
+    linear_stability call per torque (each continued from the rigid helix): the same aligned
+    state to the Newton tolerance (1e-10 on the residual), so the same ω and thrust to 1e-9;
+    λ comes from a finite-difference Jacobian (FD_STEP) of states that differ at that level
+    and in their charts, so it agrees to ~1e-7 (λ is printed to 4 digits)."""
+    torques = (1.2, -0.7, 0.3, -0.2, 0.9)
+    curve = stability_curve(COARSE, torques)
+    for M, r in zip(torques, curve):
+        cold = linear_stability(COARSE, M)
+        assert r.torque == M
+        assert r.lambda_ == pytest.approx(cold.lambda_, rel=1e-5, abs=1e-6)
+        assert r.frequency == pytest.approx(cold.frequency, rel=1e-5, abs=1e-6)
+        assert r.thrust == pytest.approx(cold.thrust, rel=1e-9)
+        assert r.omega == pytest.approx(cold.omega, rel=1e-9)
+
+
+def test_stability_curve_errors():
+    with pytest.raises(ParameterError, match="errors"):
+        stability_curve(COARSE, (0.5,), errors="ignore")
+    with pytest.raises(ParameterError, match="torque"):
+        stability_curve(COARSE, (0.5, 0.0))
 
 
 @pytest.mark.parametrize("kwargs,name", [

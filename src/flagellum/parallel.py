@@ -9,6 +9,7 @@ end themselves when the parent process dies (a killed sweep leaves no orphans be
 Two interfaces:
 
 * :func:`pmap` — ``[fun(x) for x in items]`` in order (serial for one worker or one item);
+  inside :func:`shared_pool` all its calls share one pool;
 * :func:`process_pool`, :func:`serial_pool`, :func:`dask_pool` — context managers that
   yield ``(submit, as_completed)`` with the :mod:`concurrent.futures` meaning, for callers
   that handle each result as it arrives (the sweep writes its file after every point).
@@ -148,6 +149,28 @@ def dask_pool(scheduler: str | None, dask_local: int | None):
             cluster.close()
 
 
+#: pools kept open by :func:`shared_pool`, by number of workers
+_SHARED: dict[int, concurrent.futures.Executor] = {}
+
+
+@contextmanager
+def shared_pool(workers: int):
+    """Within the block, every :func:`pmap` with ``workers`` workers submits to one pool of
+    :func:`process_pool` instead of starting its own: a command that calls :func:`pmap`
+    many times (``flagellum reproduce all``) starts its workers, their imports and Numba
+    cache loads once. Tasks and results are the same as with a pool per call. Nested use
+    with the same count reuses the outer pool; one worker is serial anyway."""
+    if workers <= 1 or workers in _SHARED:
+        yield
+        return
+    with process_pool(workers) as (submit, _):
+        _SHARED[workers] = submit
+        try:
+            yield
+        finally:
+            del _SHARED[workers]
+
+
 def pmap(fun: Callable[[Any], Any], items: Iterable, workers: int | None = None, *,
          cost: Callable[[Any], float] | None = None) -> list:
     """``[fun(x) for x in items]`` on :func:`process_pool` (serial for one worker or one
@@ -161,6 +184,16 @@ def pmap(fun: Callable[[Any], Any], items: Iterable, workers: int | None = None,
     order = range(len(items)) if cost is None else \
         sorted(range(len(items)), key=lambda k: -float(cost(items[k])))
     out = [None] * len(items)
+    if workers in _SHARED:
+        futures = {k: _SHARED[workers](fun, items[k]) for k in order}
+        try:
+            for k, fut in futures.items():
+                out[k] = fut.result()
+        except BaseException:  # as leaving process_pool with an error: drop the pending tasks
+            for fut in futures.values():
+                fut.cancel()
+            raise
+        return out
     with process_pool(min(workers, len(items))) as (submit, _):
         futures = {k: submit(fun, items[k]) for k in order}
         for k, fut in futures.items():
@@ -169,4 +202,4 @@ def pmap(fun: Callable[[Any], Any], items: Iterable, workers: int | None = None,
 
 
 __all__ = ["BLAS_THREAD_VARIABLES", "WORKERS_VARIABLE", "default_workers", "dask_pool", "pmap",
-           "process_pool", "serial_pool"]
+           "process_pool", "serial_pool", "shared_pool"]

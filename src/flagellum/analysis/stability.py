@@ -694,6 +694,33 @@ def linear_stability(params: Params | None = None, torque: float = 1.0,
                            (eq.motor or Motor(eq.torque)).drive, eq.motor_speed)
 
 
+def stability_curve(params: Params | None = None, torques=(), boundary: Boundary | None = None,
+                    n_eigs: int = 6, *, hydrodynamics: Hydrodynamics | None = None,
+                    errors: str = "raise") -> list:
+    """:func:`linear_stability` at each of ``torques`` along one continuation branch.
+
+    The torques are solved in order of increasing |M| on each side of M = 0, so that each
+    Newton solve starts from the nearest torque already solved instead of from the rigid
+    helix at small M: the same aligned states as separate :func:`linear_stability` calls
+    (to the Newton tolerance), with a fraction of the solves. Returns the results in the
+    order of ``torques``; with ``errors="return"`` a torque whose solve failed gives its
+    exception in its place (the other torques go on), with ``"raise"`` it is raised.
+    """
+    if errors not in ("raise", "return"):
+        raise ParameterError("errors", errors, "'raise' or 'return'")
+    ms = [_check_torque(m) for m in torques]
+    branch = _Branch(params or Params(), boundary or Boundary(), hydrodynamics=hydrodynamics)
+    out: list = [None] * len(ms)
+    for k in sorted(range(len(ms)), key=lambda k: (ms[k] < 0, abs(ms[k]))):
+        try:
+            out[k] = linear_stability(n_eigs=n_eigs, equilibrium=branch.at(ms[k]))
+        except (SimulationError, ParameterError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            if errors == "raise":
+                raise
+            out[k] = exc
+    return out
+
+
 def _sign_change(lam, lo: float, hi: float) -> tuple[float, float]:
     """A bracket (M_lo, M_hi) with λ(M_lo) < 0 < λ(M_hi), widened from the positive torques
     (``lo``, ``hi``) by :data:`WIDEN` per step within :data:`SEARCH_RANGE`: upwards while λ < 0
@@ -893,4 +920,4 @@ def simulated_growth_rate(equilibrium: RelativeEquilibrium, t_end: float, *,
 
 __all__ = ["BRACKETS", "SEARCH_RANGE", "WIDEN", "DRIFT", "RelativeEquilibrium", "StabilityResult", "CriticalTorque",
            "GrowthFit", "relative_equilibrium", "linear_stability", "critical_torque",
-           "critical_speed", "steady_drive", "simulated_growth_rate"]
+           "critical_speed", "stability_curve", "steady_drive", "simulated_growth_rate"]

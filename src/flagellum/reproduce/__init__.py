@@ -14,6 +14,7 @@ from __future__ import annotations
 import importlib
 from pathlib import Path
 
+from .. import parallel
 from .common import FIGURES, QUALITIES, Timer, check_quality
 from .shared import Cache
 
@@ -51,6 +52,16 @@ def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality:
         cache.log = True
     targets = FIGURES if target == "all" else (target,)
     result, timer = {}, Timer()
+    # one pool of workers for every parallel step of every figure (started once)
+    with parallel.shared_pool(parallel.default_workers(2)):
+        _run_targets(targets, out, quality, cache, echo, result)
+    if target != "all":
+        return result[target]
+    _write_index(out, result, quality, timer.seconds)
+    return {**result, "wall_seconds": timer.seconds, "quality": quality}
+
+
+def _run_targets(targets, out: Path, quality: str, cache: Cache, echo, result: dict) -> None:
     for fig in targets:
         if echo:
             echo(f"reproducing {fig} ({quality}) …")
@@ -61,10 +72,6 @@ def reproduce(target: str, out_dir: str | Path = "flagellum-reproduce", quality:
             _mark_hydrodynamics(out / fig, result[fig], cache.hydrodynamics)
         if echo:
             echo(f"  {fig} done in {t.seconds:.1f} s → {out / fig}")
-    if target != "all":
-        return result[target]
-    _write_index(out, result, quality, timer.seconds)
-    return {**result, "wall_seconds": timer.seconds, "quality": quality}
 
 
 def _mark_hydrodynamics(fig_dir: Path, result: dict, hydrodynamics) -> None:

@@ -41,22 +41,29 @@ THERMAL = {"quick": ((0.5, 0.15, 2 / 3),),
            "full": ((0.5, 1.0, 0.9), (0.8, 1.0, 0.9), (1.0, 1.0, 0.9), (1.6, 1.2, 0.6))}
 
 
-def _lambda_point(job) -> dict:
-    from ..analysis.stability import linear_stability
+def _lambda_side(job) -> list[dict]:
+    """λ at the torques of one sign, along one continuation branch (``stability_curve``)."""
+    from ..analysis.stability import stability_curve
     from ..params import Params
 
-    M, hydrodynamics = job
+    torques, hydrodynamics = job
     try:
-        r = linear_stability(Params(), float(M), hydrodynamics=hydrodynamics)
+        res = stability_curve(Params(), torques, hydrodynamics=hydrodynamics, errors="return")
     except Exception as exc:  # noqa: BLE001 - report and go on
-        return {"torque": M, "error": str(exc)}
-    return {"torque": M, "lambda": r.lambda_, "frequency": r.frequency,
-            "lab_frequency": r.lab_frequency, "omega": r.omega, "thrust": r.thrust}
+        res = [exc] * len(torques)
+    return [{"torque": M, "error": str(r)} if isinstance(r, Exception) else
+            {"torque": M, "lambda": r.lambda_, "frequency": r.frequency,
+             "lab_frequency": r.lab_frequency, "omega": r.omega, "thrust": r.thrust}
+            for M, r in zip(torques, res)]
 
 
 def lambda_curve(quality: str, hydrodynamics=None) -> list[dict]:
-    jobs = [(M, hydrodynamics) for M in sorted(LAMBDA_TORQUES[quality])]
-    return sorted(pmap(_lambda_point, jobs), key=lambda p: p["torque"])
+    """λ(M) of panel (a): one continuation branch per sign of M, the two in parallel."""
+    torques = sorted(LAMBDA_TORQUES[quality])
+    jobs = [(tuple(M for M in torques if M < 0), hydrodynamics),
+            (tuple(M for M in torques if M > 0), hydrodynamics)]
+    return sorted((p for side in pmap(_lambda_side, [j for j in jobs if j[0]]) for p in side),
+                  key=lambda p: p["torque"])
 
 
 def thermal_specs(quality: str, log: bool = False) -> list[dict]:

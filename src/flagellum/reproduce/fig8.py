@@ -99,13 +99,23 @@ def scales(params) -> dict:
 
 
 def _job(job: dict) -> dict:
-    from ..analysis.stability import critical_torque, linear_stability
+    from ..analysis.stability import critical_torque, linear_stability, stability_curve
     from ..theory.manifold import HelicalRod
 
     from ..hydro.options import Hydrodynamics
 
-    params = variant_params(job["variant"])
     hyd = Hydrodynamics.from_dict(job.get("hydrodynamics"))
+    if job["kind"] == "curve":  # the points share variant and mobility
+        pts = job["points"]
+        try:
+            res = stability_curve(variant_params(pts[0]["variant"]), [p["torque"] for p in pts],
+                                  hydrodynamics=hyd, errors="return")
+        except Exception as exc:  # noqa: BLE001 - report and go on
+            res = [exc] * len(pts)
+        extra = {"hydrodynamics": job["hydrodynamics"]} if "hydrodynamics" in job else {}
+        return [{**p, **extra, "error": str(r)} if isinstance(r, Exception) else
+                {**p, **extra, "lambda": r.lambda_, "frequency": r.frequency} for p, r in zip(pts, res)]
+    params = variant_params(job["variant"])
     try:
         if job["kind"] == "lambda":
             r = linear_stability(params, job["torque"], hydrodynamics=hyd)
@@ -184,24 +194,28 @@ def compute(quality: str, cache=None) -> Fig8Data:
 
     variants = VARIANTS[quality]
     sc = {v[0]: scales(variant_params(v)) for v in variants}
+    # the λ of one variant (or one length of the turn scan) come from one continuation
+    # branch (a "curve" job), each λ as its own "lambda" result
     jobs = []
     for v in variants:
         s = sc[v[0]]
-        for mh in M_HAT[quality]:
-            jobs.append({"kind": "lambda", "variant": v, "m_hat": mh, "torque": mh * s["torque"],
-                         "cost": abs(mh * s["torque"])})
+        pts = [{"kind": "lambda", "variant": v, "m_hat": mh, "torque": mh * s["torque"]}
+               for mh in M_HAT[quality]]
+        jobs.append({"kind": "curve", "points": pts,
+                     "cost": sum(abs(p["torque"]) for p in pts) / len(pts) * 3})
         jobs.append({"kind": "critical", "variant": v, "guess": 3.05 * s["torque"], "cost": 5 * s["torque"]})
     for geom in (NORMAL, MONO):
         for turns in TURNS[quality]:
             v = _turn_variant(geom, turns)
+            torque = scales(variant_params(v))["torque"]
+            jobs.append({"kind": "curve", "cost": 0.5, "points": [
+                {"kind": "lambda", "variant": v, "m_hat": mh, "torque": mh * torque, "turn_scan": True}
+                for mh in M_HAT_TURNS]})
             for mh in M_HAT_TURNS:
-                torque = mh * scales(variant_params(v))["torque"]
-                jobs.append({"kind": "lambda", "variant": v, "m_hat": mh, "torque": torque,
-                             "turn_scan": True, "cost": 0.3})
                 jobs.append({"kind": "theory", "variant": v, "m_hat": mh, "turn_scan": True, "cost": 0.0})
     if hyd is not None:
         jobs = [{**j, "hydrodynamics": hyd} for j in jobs]
-    res = pmap(_job, jobs)
+    res = [r for out in pmap(_job, jobs) for r in (out if isinstance(out, list) else [out])]
     # effective-rod prediction on panel (b): the normal helix' rod (depends on geometry only
     # through f̂∥/m̂, 8.7 normal vs 9.9 monotrichous)
     rod = HelicalRod.from_params(variant_params(variants[0]))

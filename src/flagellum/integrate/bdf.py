@@ -53,7 +53,16 @@ I_ORDER, I_EQUAL, I_LU_OK, I_JAC_CUR, I_PIVOTED, I_STEPS, I_RHS, I_JAC, I_LU, I_
 I_JAC_START, I_JAC_DIVERGED, I_JAC_MAXITER, I_JAC_AGE, I_JAC_STEP = range(13, 18)
 #: steps left in which the Jacobian is renewed ahead of the Newton iteration; how many were
 I_AHEAD_LEFT, I_JAC_AHEAD = 18, 19
-N_ISTATE = 20
+#: the largest number of GMRES iterations per Newton step (0: modified Newton with the banded
+#: matrix alone); the GMRES iterations taken in all
+I_KRYLOV, I_KRYLOV_ITERS = 20, 21
+N_ISTATE = 22
+#: GMRES stops when the weighted RMS norm of its residual is below this fraction of the Newton
+#: convergence bound (CVODE's eplifac, Hindmarsh et al., ACM TOMS 31, 2005)
+KRYLOV_EPS = 0.05
+#: GMRES iterations per Newton step with a frozen nonlocal mobility, and the N above which
+#: they are used (docs/hydrodynamics.md, "Scaling with N")
+KRYLOV_MAX, KRYLOV_MIN_SEGMENTS = 5, 100
 #: Jacobian policy alternatives, off as shipped (benchmarks/bench_jacobian_refresh.py measures
 #: them; neither wins in the buckled run, whose kept Jacobian fails within ~1–2 steps):
 #: up to STALE_MAXITER Newton iterations with a kept Jacobian while the rate stays below
@@ -177,6 +186,88 @@ def _factor(c, jab, lu, kl, ku, ipiv, backup, ist):
 
 
 @njit(cache=True)
+def _krylov_solve(t, y, f0, r, c, scale, lu, kl, ku, ipiv, pivoted, work, V, H, g, cs, sn,
+                  yw, fw, tol, ka, drive, general, ist):
+    """Solve (I − c J) x = r for the Newton step, J the full Jacobian at y, by GMRES with the
+    banded iteration matrix as right preconditioner (as CVODE's SPGMR with a banded
+    preconditioner): J v by a difference of right-hand sides, (f(y + σ v) − f0)/σ with
+    ‖σ v‖ = 1 (weighted RMS), f0 = f(y). Works in the scaled space r/scale; at most
+    ``V.shape[0] − 1`` iterations. Returns x in ``r``; False on a non-finite right-hand side."""
+    n = r.shape[0]
+    m = V.shape[0] - 1
+    rn = math.sqrt(n)
+    beta = 0.0
+    for j in range(n):
+        V[0, j] = r[j] / scale[j]
+        beta += V[0, j] * V[0, j]
+    beta = math.sqrt(beta)
+    if beta == 0.0:
+        return True
+    for j in range(n):
+        V[0, j] /= beta
+    g[:] = 0.0
+    g[0] = beta
+    k = 0
+    for i in range(m):
+        for j in range(n):
+            yw[j] = V[i, j] * scale[j]
+        band_solve(lu, kl, ku, ipiv, yw, pivoted, work)
+        wn = _norm(yw, scale)
+        sigma = 1.0 / wn if wn > 0.0 else 1.0
+        for j in range(n):
+            fw[j] = y[j] + sigma * yw[j]
+        ist[I_RHS] += 1
+        ist[I_KRYLOV_ITERS] += 1
+        fv = np.empty(n)
+        if not _fun(t, fw, fv, ka, drive, general):
+            return False
+        u = V[i + 1]
+        for j in range(n):
+            u[j] = (yw[j] - c * (fv[j] - f0[j]) / sigma) / scale[j]
+        for l in range(i + 1):  # modified Gram–Schmidt
+            h = 0.0
+            for j in range(n):
+                h += V[l, j] * u[j]
+            H[l, i] = h
+            for j in range(n):
+                u[j] -= h * V[l, j]
+        h = 0.0
+        for j in range(n):
+            h += u[j] * u[j]
+        h = math.sqrt(h)
+        H[i + 1, i] = h
+        if h > 0.0:
+            for j in range(n):
+                u[j] /= h
+        for l in range(i):  # the earlier Givens rotations, then a new one
+            a, b = H[l, i], H[l + 1, i]
+            H[l, i] = cs[l] * a + sn[l] * b
+            H[l + 1, i] = -sn[l] * a + cs[l] * b
+        a, b = H[i, i], H[i + 1, i]
+        d = math.hypot(a, b)
+        cs[i], sn[i] = (a / d, b / d) if d > 0.0 else (1.0, 0.0)
+        H[i, i] = d
+        H[i + 1, i] = 0.0
+        g[i + 1] = -sn[i] * g[i]
+        g[i] = cs[i] * g[i]
+        k = i + 1
+        if abs(g[i + 1]) / rn <= KRYLOV_EPS * tol or h == 0.0:
+            break
+    for i in range(k - 1, -1, -1):  # back substitution, coefficients in g
+        s = g[i]
+        for l in range(i + 1, k):
+            s -= H[i, l] * g[l]
+        g[i] = s / H[i, i]
+    for j in range(n):
+        s = 0.0
+        for i in range(k):
+            s += V[i, j] * g[i]
+        r[j] = s * scale[j]
+    band_solve(lu, kl, ku, ipiv, r, pivoted, work)
+    return True
+
+
+@njit(cache=True)
 def bdf_start(t, y, D, st, ist, ka, drive, f, yw, general):
     """Begin at (t, y): order 1, the initial step of Hairer, Nørsett & Wanner (Solving ODEs I,
     Sec. II.4) as scipy's ``select_initial_step`` chooses it; returns False on a non-finite
@@ -223,6 +314,10 @@ def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, back
     ypred, psi, ynew, d, dy, scale = (np.empty(n), np.empty(n), np.empty(n), np.empty(n),
                                       np.empty(n), np.empty(n))
     work = np.empty(n + 2 * (kl + ku))
+    mk = ist[I_KRYLOV]
+    V, H = np.empty((mk + 1, n)), np.zeros((mk + 1, max(mk, 1)))
+    g, cs, sn = np.zeros(mk + 1), np.zeros(max(mk, 1)), np.zeros(max(mk, 1))
+    fk = np.empty(n)
     steps = 0
     while st[S_T] < t_out:
         if steps >= max_steps:
@@ -287,7 +382,13 @@ def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, back
                         break
                     for j in range(n):
                         dy[j] = c * f[j] - psi[j] - d[j]
-                    band_solve(lu, kl, ku, ipiv, dy, ist[I_PIVOTED] == 1, work)
+                    if mk > 0:
+                        if not _krylov_solve(t_new, ynew, f, dy, c, scale, lu, kl, ku, ipiv,
+                                             ist[I_PIVOTED] == 1, work, V, H, g, cs, sn, yw, fk,
+                                             tol, ka, drive, general, ist):
+                            break
+                    else:
+                        band_solve(lu, kl, ku, ipiv, dy, ist[I_PIVOTED] == 1, work)
                     dn = _norm(dy, scale)
                     if k > 0:
                         crate = max(CRDOWN * crate, dn / old)
@@ -383,6 +484,15 @@ def _difference_matrix(m: int) -> np.ndarray:
     return np.array([[(-1.0) ** i * math.comb(j, i) for i in range(m)] for j in range(m)])
 
 
+def krylov_iterations(model) -> int:
+    """GMRES iterations per Newton step for ``model``: :data:`KRYLOV_MAX` with a frozen
+    nonlocal mobility above :data:`KRYLOV_MIN_SEGMENTS` segments, whose far field the banded
+    matrix misses; 0 (modified Newton) otherwise."""
+    if model.hydrodynamics.is_local or model.n <= KRYLOV_MIN_SEGMENTS:
+        return 0
+    return KRYLOV_MAX
+
+
 def drive_table(motor, t_end: float) -> tuple:
     """The arguments of :func:`drive_value` for ``motor`` up to ``t_end`` [s] (reversal
     times drawn that far)."""
@@ -409,7 +519,9 @@ class BdfStepper:
     ramped between builds inside the compiled right-hand side
     (:class:`~flagellum.integrate.frozen.FrozenMobility`); Newton's iteration matrix is then
     the banded one of the local operator plus the near field of ΔM, the operator CVODE
-    preconditions its GMRES with (docs/hydrodynamics.md). Refused: a cell body (it couples
+    preconditions its GMRES with (docs/hydrodynamics.md). Above :data:`KRYLOV_MIN_SEGMENTS`
+    that matrix alone misses too much of the far field and each Newton step is solved by up
+    to ``krylov`` (default :func:`krylov_iterations`) GMRES iterations preconditioned by it. Refused: a cell body (it couples
     outside the band) and the unfrozen ``refresh`` = 0, which rebuilds ΔM in
     :meth:`RodModel.rhs <flagellum.rod.model.RodModel.rhs>`, a call the compiled loop skips.
     """
@@ -418,7 +530,8 @@ class BdfStepper:
     rng_state = None
 
     def __init__(self, model, t0: float, y0: np.ndarray, rtol: float = 1e-6,
-                 atol: float = 1e-8, max_num_steps: int = MAX_STEPS_PER_ADVANCE):
+                 atol: float = 1e-8, max_num_steps: int = MAX_STEPS_PER_ADVANCE,
+                 krylov: int | None = None):
         if model.cell:
             raise ParameterError("method", "bdf", "'cvode' with a cell body (the BDF stepper "
                                  "needs the rod's banded Jacobian)")
@@ -438,6 +551,9 @@ class BdfStepper:
         self._st = np.zeros(6)
         self._ist = np.zeros(N_ISTATE, np.int64)
         self._st[S_RTOL], self._st[S_ATOL] = self.rtol, self.atol
+        if krylov is None:
+            krylov = krylov_iterations(model)
+        self._ist[I_KRYLOV] = int(krylov)
         ldab = 2 * self._kl + self._ku + 1
         self._jab = np.zeros((n, ldab))
         self._lu = np.zeros((n, ldab))
@@ -474,7 +590,8 @@ class BdfStepper:
                 "error_test_failures": int(i[I_EFAIL]), "jacobians_at_start": int(i[I_JAC_START]),
                 "jacobians_after_divergence": int(i[I_JAC_DIVERGED]),
                 "jacobians_after_max_iterations": int(i[I_JAC_MAXITER]),
-                "jacobian_age_steps": int(i[I_JAC_AGE]), "jacobians_ahead": int(i[I_JAC_AHEAD])}
+                "jacobian_age_steps": int(i[I_JAC_AGE]), "jacobians_ahead": int(i[I_JAC_AHEAD]),
+                "krylov_iterations": int(i[I_KRYLOV_ITERS])}
 
     def _drive_for(self, t: float) -> tuple:
         if t > self._drive_end:  # reversal times drawn well past the next output

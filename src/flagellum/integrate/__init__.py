@@ -17,13 +17,11 @@ ATOL_PER_RTOL = 1e-2
 MAX_STEPS_PER_ADVANCE = 5000
 
 
-#: the largest N at which the Numba BDF is the default with a frozen nonlocal mobility: its
-#: modified Newton with the banded matrix (local operator plus the near
+#: the largest N at which the Numba BDF is the default with a frozen nonlocal mobility, the
+#: largest at which it worked: its modified Newton with the banded matrix (local operator plus the near
 #: field of ΔM) converges at N = 50 and 100, but at N = 200 the step collapsed (24 863 steps
 #: over 0.02 s at M = 1); above N = 100 each Newton step is solved by GMRES with that matrix
-#: as preconditioner (:data:`flagellum.integrate.bdf.KRYLOV_MAX`), checked at N = 200; at
-#: N = 400 that run took 15 401 steps over 2 ms and ended with the thrust's sign reversed, so
-#: CVODE stays the default there (docs/hydrodynamics.md)
+#: as preconditioner (:data:`flagellum.integrate.bdf.KRYLOV_MAX`; docs/hydrodynamics.md)
 BDF_NONLOCAL_MAX_SEGMENTS = 200
 
 

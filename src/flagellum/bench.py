@@ -32,11 +32,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 
 import numpy as np
 
+from . import costs
 from .analysis.observables import summarize
 from .motor import Boundary, Motor
 from .params import Filament, Params
@@ -148,10 +150,12 @@ def _solver(kind: str, value: float | None = None) -> SolverOptions:
 
 
 def run_regime(name: str, solver: SolverOptions | None = None, window: float | None = None,
-               hydrodynamics=None) -> dict:
+               hydrodynamics=None, with_limit: bool = False) -> dict:
     """One run of regime ``name`` of :data:`REGIMES` from rest: wall time of the run itself,
     steps, steps per motor revolution and the time averages (thrust, ω, χ; last half);
-    ``hydrodynamics`` the mobility (default RFT); ``cpu_seconds`` the process time of the run."""
+    ``hydrodynamics`` the mobility (default RFT); ``cpu_seconds`` the process time of the run;
+    ``with_limit``: also ``limit``, where the run's wall time went (:func:`flagellum.costs.limit`,
+    measured in this run)."""
     torque, w, boundary, thermal = REGIMES[name]
     w = w if window is None else window
     if solver is None:
@@ -160,16 +164,20 @@ def run_regime(name: str, solver: SolverOptions | None = None, window: float | N
                     solver=solver, hydrodynamics=hydrodynamics)
     # the same records for every solver: the averages compared sample the same instants
     save = SAVE_GRID * max(1, round(w / RECORDS / SAVE_GRID))
-    cpu0 = time.process_time()
-    tr, wall, steps = _timed(sim, w, save)
-    cpu = time.process_time() - cpu0
+    with costs.instrumented(sim) if with_limit else contextlib.nullcontext() as clock:
+        cpu0 = time.process_time()
+        tr, wall, steps = _timed(sim, w, save)
+        cpu = time.process_time() - cpu0
     s = summarize(tr.t, tr.thrust, tr.motor_angle, tr.positions, tr.energy,
                   tr.meta.get("helix_radius", 0.2))
     revolutions = abs(tr.motor_angle[-1] - tr.motor_angle[0]) / (2 * np.pi)
-    return {"method": sim.solver.method, "window": w, "wall_seconds": wall, "cpu_seconds": cpu,
-            "wall_per_simulated_second": wall / w,
-            "steps": steps, "steps_per_revolution": steps / max(revolutions, 1e-12),
-            "thrust": s.thrust_mean, "omega": s.omega_mean, "chi": s.chi_mean}
+    row = {"method": sim.solver.method, "window": w, "wall_seconds": wall, "cpu_seconds": cpu,
+           "wall_per_simulated_second": wall / w,
+           "steps": steps, "steps_per_revolution": steps / max(revolutions, 1e-12),
+           "thrust": s.thrust_mean, "omega": s.omega_mean, "chi": s.chi_mean}
+    if with_limit:
+        row["limit"] = costs.limit(clock, wall, revolutions)
+    return row
 
 
 def average_errors(run: dict, ref: dict) -> dict:
@@ -210,7 +218,8 @@ def regimes(quick: bool = False, names=None, solver: SolverOptions | None = None
     for name in names or REGIMES:
         torque, w, _, thermal = REGIMES[name]
         w = 0.25 * w if quick else w
-        row = {"torque": torque, **run_regime(name, None if thermal else solver, window=w)}
+        row = {"torque": torque, **run_regime(name, None if thermal else solver, window=w,
+                                              with_limit=True)}
         if not thermal:
             row["rtol"] = (solver or SolverOptions()).rtol
         if not thermal:

@@ -66,7 +66,9 @@ def bench(quick, window, with_regimes, plot, plot_regimes, method, rtol, peer, w
         click.echo(f"  {name}: " + ", ".join(
             f"{k} {fmt(row[k])}" for k in ("wall_per_simulated_second", "steps",
                                            "steps_per_revolution", "error", "peer_ratio")
-            if row.get(k) is not None))
+            if row.get(k) is not None)
+            + (f", limit {row['limit']['dominant']} ({row['limit']['share']:.0%})"
+               if row.get("limit") else ""))
     for name, row in out.get("sbt_regimes", {}).items():
         click.echo(f"  {name} sbt/rft: cpu ×{fmt(row['cpu_ratio'])}, wall ×{fmt(row['wall_ratio'])}"
                    + (f", error {fmt(row['error'])}" if "error" in row else ""))

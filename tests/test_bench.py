@@ -5,11 +5,11 @@ import json
 
 import pytest
 
-from flagellum import bench
+from flagellum import bench, costs
 from flagellum.cli import run
 
 ROW_KEYS = {"torque", "window", "wall_per_simulated_second", "steps", "steps_per_revolution",
-            "thrust", "omega", "chi", "error", "peer_ratio"}
+            "thrust", "omega", "chi", "error", "peer_ratio", "limit"}
 
 
 def _short(monkeypatch, window=2e-3):
@@ -68,3 +68,60 @@ def test_regimes_default_to_each_runs_default_method(monkeypatch):
     _short(monkeypatch)
     assert {name: bench.run_regime(name)["method"] for name in bench.REGIMES} == {
         name: "implicit" if th else "bdf" for name, (_, _, _, th) in bench.REGIMES.items()}
+
+
+LIMIT_KEYS = {"dominant", "share", "shares", "integrator_share", "steps_per_revolution",
+              "microseconds_per_step", "unit_microseconds", "counts", "next_step"}
+
+
+def _check_limit(lim, row):
+    assert LIMIT_KEYS <= set(lim)
+    shares = lim["shares"]
+    assert all(v >= 0 for v in shares.values())
+    assert sum(shares.values()) <= 1.0 + 1e-3  # shares of one run's wall time (rounded to 1e-4)
+    assert lim["dominant"] == max(shares, key=shares.get) and lim["share"] == shares[lim["dominant"]]
+    assert lim["next_step"] == costs.NEXT_STEP[lim["dominant"]]
+    # the stepper's own counters: the steps of the row, one Newton solve per iteration
+    assert lim["counts"]["steps"] == row["steps"] > 0
+    assert lim["counts"]["solves"] == lim["counts"]["newton_iterations"] > 0
+    assert lim["steps_per_revolution"] == pytest.approx(row["steps_per_revolution"])
+    # the integrator's parts add up to its measured share (what the unit costs miss is
+    # "bookkeeping"; they are scaled down if they over-explain it)
+    inner = sum(v for k, v in shares.items()
+                if k not in ("records", "chart_checks", "chart_changes", "loop"))
+    assert inner == pytest.approx(lim["integrator_share"], abs=2e-3)
+
+
+def test_limit_of_a_bdf_and_a_thermal_run(monkeypatch):
+    """``limit`` of the BDF (from rest, M = 1) and of the thermal BDF2 regime, a few ms each:
+    its structure, shares of the wall time that sum to ≤ 1, the counters of the stepper."""
+    _short(monkeypatch)
+    for name in ("from_rest_M1", "thermal_M1"):
+        row = bench.run_regime(name, with_limit=True)
+        _check_limit(row["limit"], row)
+        unit = row["limit"]["unit_microseconds"]
+        assert {"rhs", "jacobian", "factorization", "solve"} <= set(unit)
+        assert all(v > 0 for v in unit.values())
+    assert "noise" in unit  # the thermal increment, timed only with noise
+
+
+def test_instrumented_run_is_the_same_run(monkeypatch):
+    """The timers change no numbers: the same averages and steps with and without them."""
+    _short(monkeypatch)
+    a = bench.run_regime("free_swimmer_M2", with_limit=True)
+    b = bench.run_regime("free_swimmer_M2")
+    assert (a["thrust"], a["omega"], a["chi"], a["steps"]) == (b["thrust"], b["omega"], b["chi"],
+                                                               b["steps"])
+
+
+def test_limit_shares_from_the_clock():
+    """A run whose clock holds 0.5 s in the stepper (no split for an unknown stepper) and
+    0.3 s of records out of 1 s of wall: those shares, the loop the remaining 0.2."""
+    clock = costs.Clock()
+    clock.seconds = {"integrator": 0.5, "records": 0.3}
+    clock.calls = {"integrator": 10, "records": 10}
+    lim = costs.limit(clock, 1.0, revolutions=2.0)
+    assert lim["shares"] == {"integrator": 0.5, "records": 0.3, "chart_checks": 0.0,
+                             "chart_changes": 0.0, "loop": 0.2}
+    assert lim["dominant"] == "integrator" and lim["share"] == 0.5
+    assert lim["next_step"] == costs.NEXT_STEP["integrator"]

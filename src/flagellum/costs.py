@@ -42,6 +42,8 @@ NEXT_STEP = {
     "factorization": "fewer refactorizations (keep I − cJ while h/α changes little)",
     "solve": "fewer Newton iterations per step",
     "noise": "a cheaper thermal increment (the random finite difference of the drift)",
+    "charts": "charts re-centred only where a tangent has moved (not every bead every step)",
+    "anderson": "fewer Newton iterations per step (a better predictor than y_n)",
     "bookkeeping": "fewer steps per revolution (error control on the components the "
                    "observables do not need)",
     "per_stop": "fewer stops (longer chunks between chart checks)",
@@ -168,6 +170,19 @@ def _repeat_thermal(k, y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, 
                              zf, zm, zh, xi_f, xi_m, xi_h, zf[:0], general)
 
 
+@njit(cache=True)
+def _repeat_anderson(k, y0, y, d, f_prev, g_prev, df, dg, a, gam, m):
+    for _ in range(k):
+        y[:] = y0
+        BR._anderson(y, d, f_prev, g_prev, df, dg, a, gam, m, m)
+
+
+@njit(cache=True)
+def _repeat_charts(k, y, n, ref_u, ref_e, ws):
+    for _ in range(k):
+        K.rechart_all(y, n, ref_u, ref_e, ws[0], ws[1], ws[2], ws[3], ws[4], ws[9])
+
+
 def _seconds(fn, k=REPEATS) -> float:
     """Seconds per repetition of ``fn(k)``: the median of five, after one untimed call (the
     median, not the best: the run it is compared with shared the machine as it was)."""
@@ -273,6 +288,18 @@ def _implicit_unit_costs(s) -> tuple[dict, dict]:
             k, y, s.dt, s.kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, *arrays, z3.copy(), z1.copy(),
             zhh.copy(), z3.copy(), z1.copy(), zhh.copy(), general))
         counts["noise"] = s.n_steps
+    # per step the charts are centred on the tangents, per iteration that does not converge
+    # an Anderson update (timed with a full history: an upper bound)
+    unit["charts"] = _seconds(lambda k: _repeat_charts(k, y.copy(), m.n, ref_u.copy(),
+                                                       ref_e.copy(), ws))
+    counts["charts"] = s.n_steps
+    rng0 = np.random.default_rng(2)
+    am = 4
+    unit["anderson"] = _seconds(lambda k: _repeat_anderson(
+        k, y, y.copy(), 1e-6 * rng0.standard_normal(n), np.zeros(n), np.zeros(n),
+        1e-6 * rng0.standard_normal((am, n)), 1e-6 * rng0.standard_normal((am, n)),
+        np.zeros((am, am)), np.zeros(am), am))
+    counts["anderson"] = max(s.n_iter - s.n_steps, 0)
     # per step in Python: the noise draws and the motor's torque at each step's end
     rng = copy.deepcopy(s.rng)
     times = s.t + s.dt * np.arange(1, REPEATS + 1)
@@ -289,8 +316,8 @@ def _implicit_unit_costs(s) -> tuple[dict, dict]:
 
 #: the unit-cost keys of a stepper's time, in the order they are reported → their counts
 _PIECES = {"rhs": "rhs", "jacobian": "jacobians", "factorization": "factorizations",
-           "solve": "solves", "noise": "noise", "per_step_python": "per_step_python",
-           "per_stop": "stops"}
+           "solve": "solves", "noise": "noise", "charts": "charts", "anderson": "anderson",
+           "per_step_python": "per_step_python", "per_stop": "stops"}
 
 
 def limit(clock: Clock, wall: float, revolutions: float) -> dict:

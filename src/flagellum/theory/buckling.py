@@ -48,11 +48,12 @@ import math
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
-import numba
 import numpy as np
 import scipy.linalg
+from numba import njit
 from scipy.optimize import brentq
 
+from .. import _jit  # noqa: F401  (the package's Numba cache, before the first cache=True kernel)
 from ..errors import FlagellumError, ParameterError
 from ..params import check_choice, check_real
 
@@ -136,7 +137,7 @@ class BucklingProblem:
 # Shooting: Taylor-series propagation of the fundamental solutions and their sensitivities
 # --------------------------------------------------------------------------------------------
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _coefficients(z, p, flags):
     """Last row r(z) of the companion matrix of the rod equation, its z-slope s, and both per
     parameter.
@@ -157,7 +158,7 @@ def _coefficients(z, p, flags):
     return r, s, dr, ds
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _propagate(Y, dY, p, flags, z0, z1, hmax, sens):
     """Advance solutions Y (4, ncol) and sensitivities dY (len(sens), 4, ncol) from z0 to z1.
 

@@ -88,7 +88,7 @@ def _check_limit(lim, row):
     # the integrator's parts add up to its measured share (what the unit costs miss is
     # "bookkeeping"; they are scaled down if they over-explain it)
     inner = sum(v for k, v in shares.items()
-                if k not in ("records", "chart_checks", "chart_changes", "loop"))
+                if k not in ("records", "chart_checks", "frame", "chart_changes", "loop"))
     assert inner == pytest.approx(lim["integrator_share"], abs=2e-3)
 
 
@@ -122,6 +122,6 @@ def test_limit_shares_from_the_clock():
     clock.calls = {"integrator": 10, "records": 10}
     lim = costs.limit(clock, 1.0, revolutions=2.0)
     assert lim["shares"] == {"integrator": 0.5, "records": 0.3, "chart_checks": 0.0,
-                             "chart_changes": 0.0, "loop": 0.2}
+                             "frame": 0.0, "chart_changes": 0.0, "loop": 0.2}
     assert lim["dominant"] == "integrator" and lim["share"] == 0.5
     assert lim["next_step"] == costs.NEXT_STEP["integrator"]

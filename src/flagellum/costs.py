@@ -3,7 +3,7 @@
 :func:`instrumented` times, during one ordinary run, the calls the run loop makes
 (:meth:`Simulator.run <flagellum.simulator.Simulator.run>`): the stepper's ``advance``
 (the integrator), its ``carry`` and ``reset`` (chart changes and restarts), the records,
-the chart checks and the frame's adaptation; the rest of the run's wall time is the loop's
+the chart checks and the co-rotating frame's adaptation; the rest of the run's wall time is the loop's
 own Python. Nothing in the run's numerics changes: the wrappers are instance attributes
 that call the original methods, ~0.2 µs each.
 
@@ -50,6 +50,7 @@ NEXT_STEP = {
     "per_step_python": "the per-step Python (noise draws, motor torques) moved into the kernel",
     "records": "cheaper records (fewer, or built in compiled code)",
     "chart_checks": "fewer chart checks (longer chunks)",
+    "frame": "a cheaper check of the co-rotating frame's rate (not every record)",
     "chart_changes": "fewer chart changes or a cheaper carry of the history",
     "loop": "less Python per chunk in the run loop",
     "integrator": "a split of this stepper's cost (only the BDF and BDF2 are split)",
@@ -99,7 +100,7 @@ def instrumented(sim):
         return s
 
     patched = {"_stepper": stepper, "_record": clock.wrap(sim._record, "records"),
-               "_adapt_frame": clock.wrap(sim._adapt_frame, "chart_checks")}
+               "_adapt_frame": clock.wrap(sim._adapt_frame, "frame")}
     for name, fn in patched.items():
         setattr(sim, name, fn)
     model.rechart = clock.wrap(model.rechart, "chart_checks")
@@ -326,7 +327,7 @@ def limit(clock: Clock, wall: float, revolutions: float) -> dict:
     docstring), the largest (``dominant``, ``share``), the counts and unit costs [µs] they
     come from, steps per revolution and ``next_step`` (:data:`NEXT_STEP`)."""
     sec = clock.seconds
-    outer = {k: sec.get(k, 0.0) for k in ("records", "chart_checks", "chart_changes")}
+    outer = {k: sec.get(k, 0.0) for k in ("records", "chart_checks", "frame", "chart_changes")}
     integ = sec.get("integrator", 0.0)
     s = clock.stepper
     inner, unit, counts = {}, {}, {}

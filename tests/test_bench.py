@@ -70,8 +70,9 @@ def test_regimes_default_to_each_runs_default_method(monkeypatch):
         name: "implicit" if th else "bdf" for name, (_, _, _, th) in bench.REGIMES.items()}
 
 
-LIMIT_KEYS = {"dominant", "share", "shares", "integrator_share", "steps_per_revolution",
-              "microseconds_per_step", "unit_microseconds", "counts", "next_step"}
+LIMIT_KEYS = {"dominant", "share", "groups", "piece", "piece_share", "shares", "integrator_share",
+              "steps_per_revolution", "iterations_per_step", "microseconds_per_step",
+              "unit_microseconds", "counts", "next_step"}
 
 
 def _check_limit(lim, row):
@@ -79,8 +80,12 @@ def _check_limit(lim, row):
     shares = lim["shares"]
     assert all(v >= 0 for v in shares.values())
     assert sum(shares.values()) <= 1.0 + 1e-3  # shares of one run's wall time (rounded to 1e-4)
-    assert lim["dominant"] == max(shares, key=shares.get) and lim["share"] == shares[lim["dominant"]]
-    assert lim["next_step"] == costs.NEXT_STEP[lim["dominant"]]
+    assert lim["piece"] == max(shares, key=shares.get) and lim["piece_share"] == shares[lim["piece"]]
+    groups = lim["groups"]  # every piece in one group, the groups' shares its sums
+    assert sorted(k for g in groups for k in costs.GROUPS[g] if k in shares) == sorted(shares)
+    assert sum(groups.values()) == pytest.approx(sum(shares.values()), abs=1e-3)
+    assert lim["dominant"] == max(groups, key=groups.get) and lim["share"] == groups[lim["dominant"]]
+    assert lim["next_step"].startswith(costs.NEXT_STEP[lim["dominant"]].split("{")[0])
     # the stepper's own counters: the steps of the row, one Newton solve per iteration
     assert lim["counts"]["steps"] == row["steps"] > 0
     assert lim["counts"]["solves"] == lim["counts"]["newton_iterations"] > 0
@@ -115,13 +120,14 @@ def test_instrumented_run_is_the_same_run(monkeypatch):
 
 
 def test_limit_shares_from_the_clock():
-    """A run whose clock holds 0.5 s in the stepper (no split for an unknown stepper) and
-    0.3 s of records out of 1 s of wall: those shares, the loop the remaining 0.2."""
+    """A run whose clock holds 0.6 s in the stepper (no split for an unknown stepper) and
+    0.3 s of records out of 1 s of wall: those shares, the loop the remaining 0.1."""
     clock = costs.Clock()
-    clock.seconds = {"integrator": 0.5, "records": 0.3}
+    clock.seconds = {"integrator": 0.6, "records": 0.3}
     clock.calls = {"integrator": 10, "records": 10}
     lim = costs.limit(clock, 1.0, revolutions=2.0)
-    assert lim["shares"] == {"integrator": 0.5, "records": 0.3, "chart_checks": 0.0,
-                             "frame": 0.0, "chart_changes": 0.0, "loop": 0.2}
-    assert lim["dominant"] == "integrator" and lim["share"] == 0.5
+    assert lim["shares"] == {"integrator": 0.6, "records": 0.3, "chart_checks": 0.0,
+                             "frame": 0.0, "chart_changes": 0.0, "loop": 0.1}
+    assert lim["groups"] == {"run_loop": 0.4, "integrator": 0.6}
+    assert lim["dominant"] == lim["piece"] == "integrator" and lim["share"] == 0.6
     assert lim["next_step"] == costs.NEXT_STEP["integrator"]

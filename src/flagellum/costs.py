@@ -15,8 +15,10 @@ so that no Python dispatch is counted in it), plus the fixed cost of a stop (the
 Python and the compiled call's dispatch, timed as a call that takes no step). What is left
 of the integrator's time is its bookkeeping (predictor, error control, order and step
 changes, the difference array; for the fixed-step scheme also the charts and the Anderson
-update). The shares are of the run's wall time and sum to 1; ``dominant`` is the largest
-and ``next_step`` the action :data:`NEXT_STEP` names for it.
+update). The shares are of the run's wall time and sum to 1. They are grouped by what
+their number scales with (:data:`GROUPS`); ``dominant`` is the largest group, ``piece``
+the largest share, and ``next_step`` the action :data:`NEXT_STEP` names for that group,
+with the run's counts filled in.
 """
 
 from __future__ import annotations
@@ -35,24 +37,27 @@ from .integrate import brownian as BR
 from .integrate.banded import band_factor, band_solve
 from .rod import kernels as K
 
-#: the measured cost → the next step named for it, when it is the largest share
+#: the pieces of the wall time grouped by what their number scales with: Newton iterations,
+#: Jacobian renewals (with their factorizations), steps, and stops and records (the run loop)
+GROUPS = {
+    "newton_iterations": ("rhs", "solve", "anderson"),
+    "jacobians": ("jacobian", "factorization"),
+    "steps": ("noise", "charts", "per_step_python", "bookkeeping"),
+    "run_loop": ("per_stop", "records", "chart_checks", "frame", "chart_changes", "loop"),
+    "integrator": ("integrator",),  # a stepper whose time is not split
+}
+#: the largest group → the next step named for it ({} filled from the run's counts)
 NEXT_STEP = {
-    "rhs": "fewer Newton iterations per step, or a faster right-hand-side kernel",
-    "jacobian": "fewer Jacobian renewals (a Jacobian kept longer), or a cheaper Jacobian",
-    "factorization": "fewer refactorizations (keep I − cJ while h/α changes little)",
-    "solve": "fewer Newton iterations per step",
-    "noise": "a cheaper thermal increment (the random finite difference of the drift)",
-    "charts": "charts re-centred only where a tangent has moved (not every bead every step)",
-    "anderson": "fewer Newton iterations per step (a better predictor than y_n)",
-    "bookkeeping": "fewer steps per revolution (error control on the components the "
-                   "observables do not need)",
-    "per_stop": "fewer stops (longer chunks between chart checks)",
-    "per_step_python": "the per-step Python (noise draws, motor torques) moved into the kernel",
-    "records": "cheaper records (fewer, or built in compiled code)",
-    "chart_checks": "fewer chart checks (longer chunks)",
-    "frame": "a cheaper check of the co-rotating frame's rate (not every record)",
-    "chart_changes": "fewer chart changes or a cheaper carry of the history",
-    "loop": "less Python per chunk in the run loop",
+    "newton_iterations": "fewer Newton iterations per step (now {iterations_per_step:.2g}): a "
+                         "better predictor or a faster-contracting iteration; the largest "
+                         "piece is {piece}",
+    "jacobians": "fewer Jacobian renewals and refactorizations (now {jacobians_per_step:.2g} "
+                 "and {factorizations_per_step:.2g} per step): keep them longer; the largest "
+                 "piece is {piece}",
+    "steps": "fewer steps (now {steps_per_revolution:.3g} per motor revolution) or less "
+             "work per step outside Newton's iteration; the largest piece is {piece}",
+    "run_loop": "less Python per record and per chunk (records, chart checks, the frame's "
+                "adaptation); the largest piece is {piece}",
     "integrator": "a split of this stepper's cost (only the BDF and BDF2 are split)",
 }
 #: repetitions of each compiled piece when its unit cost is timed
@@ -324,8 +329,10 @@ _PIECES = {"rhs": "rhs", "jacobian": "jacobians", "factorization": "factorizatio
 def limit(clock: Clock, wall: float, revolutions: float) -> dict:
     """What limits the instrumented run of ``clock`` (:func:`instrumented`) that took ``wall``
     seconds and turned the motor ``revolutions`` times: the shares of the wall time (module
-    docstring), the largest (``dominant``, ``share``), the counts and unit costs [µs] they
-    come from, steps per revolution and ``next_step`` (:data:`NEXT_STEP`)."""
+    docstring) and their groups (:data:`GROUPS`), the largest group (``dominant``, ``share``)
+    and piece (``piece``, ``piece_share``), the counts and unit costs [µs] they come from,
+    Newton iterations, Jacobians and factorizations per step, steps per revolution and
+    ``next_step`` (:data:`NEXT_STEP`)."""
     sec = clock.seconds
     outer = {k: sec.get(k, 0.0) for k in ("records", "chart_checks", "frame", "chart_changes")}
     integ = sec.get("integrator", 0.0)
@@ -353,12 +360,20 @@ def limit(clock: Clock, wall: float, revolutions: float) -> dict:
     parts["loop"] = max(wall - sum(parts.values()), 0.0)
     total = max(wall, sum(parts.values()), 1e-12)
     shares = {k: round(v / total, 4) for k, v in parts.items()}
-    dominant = max(shares, key=shares.get)
+    groups = {g: round(sum(shares.get(k, 0.0) for k in keys), 4) for g, keys in GROUPS.items()
+              if any(k in shares for k in keys)}
+    dominant = max(groups, key=groups.get)
+    piece = max(shares, key=shares.get)
     steps = counts.get("steps", getattr(s, "n_steps", 0))
-    return {"dominant": dominant, "share": shares[dominant], "shares": shares,
+    per_step = 1.0 / max(steps, 1)
+    rates = {"iterations_per_step": counts.get("newton_iterations", 0) * per_step,
+             "jacobians_per_step": counts.get("jacobians", 0) * per_step,
+             "factorizations_per_step": counts.get("factorizations", 0) * per_step,
+             "steps_per_revolution": steps / max(revolutions, 1e-12)}
+    return {"dominant": dominant, "share": groups[dominant], "groups": groups,
+            "piece": piece, "piece_share": shares[piece], "shares": shares,
             "integrator_share": round(integ / total, 4),
-            "steps_per_revolution": steps / max(revolutions, 1e-12),
-            "microseconds_per_step": 1e6 * wall / max(steps, 1),
+            "microseconds_per_step": 1e6 * wall / max(steps, 1), **rates,
             "unit_microseconds": {k: round(1e6 * v, 3) for k, v in unit.items()},
             "counts": counts, "estimate_scale": round(scale, 4),
-            "next_step": NEXT_STEP[dominant]}
+            "next_step": NEXT_STEP[dominant].format(piece=piece, **rates)}

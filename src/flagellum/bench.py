@@ -13,7 +13,9 @@
   M = 1.6, M = 3, oscillating M = 5, a load sphere, a free swimmer, thermal M = 1 — each
   with the wall seconds per simulated second, the solver's steps, steps per motor
   revolution, and the error of the time-averaged thrust, ω and χ (last half of the window)
-  against a tight-tolerance run whose own convergence is shown by a second, looser one.
+  against a tight-tolerance run whose own convergence is shown by a second, looser one;
+  ``limit``: where that run's wall time went and the next step named for its largest cost
+  (:func:`flagellum.costs.limit`, measured in the run itself).
   Any deterministic stepper can run them (``solver``; ``flagellum bench --method cvode``);
   by default each run's default method (the Numba BDF for all deterministic ones).
 * ``sbt_regimes`` (:func:`sbt_regimes`, ``flagellum bench --hydrodynamics sbt``): the runs

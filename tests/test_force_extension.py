@@ -209,6 +209,8 @@ def test_reproduce_force_extension_quick(tmp_path, cli):
     assert 3.0 < res["force_up_slowest"] < 5.0
     assert res["force_up"] == sorted(res["force_up"])  # faster pulls transform later
     assert all(a > 0 for a in res["loop_area"])
+    # the pull from normal goes past Darnton & Berg's 4–7 pN without a transformation
+    assert res["normal_force_max"] > 7.0 and res["normal_phi_away_max"] < 0.05
 
 
 def test_tension_drive_against_the_pulled_rod():

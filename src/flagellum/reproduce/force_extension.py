@@ -164,7 +164,7 @@ def plot(data: ForceExtensionData, res: dict, out_dir: Path) -> list:
     b.set_title(f"(b) rate dependence: dF/d ln v = {res['slope_force_up_per_ln_rate']:.2f} pN", fontsize=9)
     b.legend(fontsize=7)
     return save_figure(fig, out_dir, "force-extension",
-                       f"coiled filament pulled by a trap (k = {TRAP:g} pN/µm, L = {LENGTH:g} µm, M = 0)")
+                       f"coiled and normal filaments pulled by a trap (k = {TRAP:g} pN/µm, L = {LENGTH:g} µm, M = 0)")
 
 
 def write(out_dir: Path, data: ForceExtensionData, res: dict, quality: str) -> list:
@@ -200,7 +200,7 @@ def compare(res: dict, quality: str) -> Comparison:
             "rate dependent", res["slope_force_up_per_ln_rate"], "pN per ln(µm/s)",
             "least-squares slope of F_up against ln v")
     cmp.add("transformation force from normal [paper: 4–7]", "4–7",
-            f"none up to {res['normal_force_max']:.1f} (largest |φ − normal| "
+            f"none up to {res['normal_force_max']:.1f} (largest shift of φ from normal "
             f"{res['normal_phi_away_max']:.1g})", "pN",
             f"forms coiled, normal, semicoiled at {NORMAL_RATE:g} µm/s: the pull drives normal away "
             "from both neighbours (docs/polymorphism.md)")

@@ -9,7 +9,11 @@ filament (L = 4 µm, the paper's rod otherwise, M = 0) starts in the coiled form
 not fitted to the pull; the defaults of :class:`~flagellum.params.Polymorphism` are fitted to
 Hotani's torques and let the coiled form go at about 0.9 pN, docs/polymorphism.md); the trap (stiffness ``TRAP`` pN/µm) moves out by ``TRAVEL`` µm at each
 rate and back (:func:`flagellum.pulling.pull_cycle`). The single-form filaments (coiled
-alone, normal alone) pulled the same way give the static curves of the two branches.
+alone, normal alone) pulled the same way give the static curves of the two branches. A
+normal filament between its neighbours in Calladine's sequence (forms coiled, normal,
+semicoiled, the same landscape) pulled past Darnton & Berg's 4–7 pN shows that the model
+has no transformation from normal under tension: the pull drives normal away from both
+neighbours (:func:`flagellum.rod.polymorph.tension_drive`; docs/polymorphism.md).
 Panels: (a) force against extension, (b) the transformation force against the pulling rate.
 """
 
@@ -34,6 +38,9 @@ FORMS = ("coiled", "normal")
 #: transform the pulled coiled filament at 0.91 pN (1 µm/s), below Darnton & Berg's 3–5 pN
 LANDSCAPE = {"barrier": 1.0, "wall_stiffness": 8.0}
 RATES = {"quick": (2.0, 8.0), "full": (0.25, 0.5, 1.0, 2.0, 4.0, 8.0)}  #: [µm/s]
+#: the pull of a normal filament between its neighbours: forms, rate [µm/s], travel [µm]
+#: (to ≈ 11 pN with TRAP, past Darnton & Berg's 4–7 pN)
+NORMAL_FORMS, NORMAL_RATE, NORMAL_TRAVEL = ("coiled", "normal", "semicoiled"), 2.0, 1.5
 #: Darnton & Berg (2007), abstract: thresholds from the coiled and from the normal form [pN]
 DB_COILED, DB_NORMAL = (3.0, 5.0), (4.0, 7.0)
 UNITS = {"rate": "µm/s", "t": "s", "force": "pN", "extension": "µm", "force_up": "pN",
@@ -64,6 +71,14 @@ def pull(job: dict) -> dict:
 
     v, params, pm = job["rate"], _params(), None
     form = job.get("form")
+    if form == "from normal":
+        pm = Polymorphism(forms=NORMAL_FORMS, initial="normal", **LANDSCAPE)
+        c = pull_cycle(params, pm, trap_stiffness=TRAP, schedule=up_down(v, NORMAL_TRAVEL / v),
+                       samples=150)
+        away = np.abs(c.phi - NORMAL_FORMS.index("normal"))
+        return {"rate": v, "form": form, "t": c.t, "force": c.force, "extension": c.extension,
+                "fraction": 1.0 - c.fraction(NORMAL_FORMS.index("normal")),
+                "phi_away_max": float(away.max()), "loop_area": c.transitions().loop_area}
     if form == "coiled":  # the coiled form as the filament's own helix (single-state path)
         pitch, diameter, _ = POLYMORPHIC_FORMS["coiled"]
         k, t = helix_strains(pitch, diameter)
@@ -82,6 +97,7 @@ def compute(quality: str, cache=None) -> ForceExtensionData:
     rates = RATES[quality]
     jobs = [{"rate": v, "cost": TRAVEL / v} for v in rates]
     jobs += [{"rate": 1.0, "form": f, "cost": 0.3} for f in ("coiled", "normal")]
+    jobs.append({"rate": NORMAL_RATE, "form": "from normal", "cost": 0.3})
     res = pmap(pull, jobs)
     curves = [r for r in res if r["form"] == "polymorphic"]
     static = {r["form"]: r for r in res if r["form"] != "polymorphic"}
@@ -95,13 +111,28 @@ def analyse(data: ForceExtensionData) -> dict:
     ok = np.isfinite(f_up)
     slope = float(np.polyfit(np.log(np.array(data.rates)[ok]), f_up[ok], 1)[0]) if ok.sum() > 1 else math.nan
     ref = tr[int(np.argmin(data.rates))]  # the slowest pull
-    return {"rates": list(data.rates), "force_up": f_up.tolist(),
+    nrm = data.static["from normal"]
+    return {"normal_force_max": float(np.max(nrm["force"])), "normal_phi_away_max": nrm["phi_away_max"],
+            "normal_fraction_max": float(np.max(nrm["fraction"])), "normal_loop_area": nrm["loop_area"],
+            "normal_drive_per_pN": _normal_drives(),
+            **{"rates": list(data.rates), "force_up": f_up.tolist(),
             "extension_up": [t["extension_up"] for t in tr],
             "force_down": [t["force_down"] for t in tr], "loop_area": [t["loop_area"] for t in tr],
             "fraction_max": [t["fraction_max"] for t in tr],
             "slowest_rate": float(min(data.rates)), "force_up_slowest": ref["force_up"],
             "loop_area_slowest": ref["loop_area"],
-            "slope_force_up_per_ln_rate": slope}
+            "slope_force_up_per_ln_rate": slope}}
+
+
+def _normal_drives() -> dict:
+    """The small-load drive per pN (:func:`~flagellum.rod.polymorph.tension_drive`) of the
+    target's normal form towards each neighbour, and of coiled towards normal."""
+    from ..params import Polymorphism
+    from ..rod.polymorph import tension_drive
+
+    kap, tau = Polymorphism(forms=NORMAL_FORMS).strains(_params().filament)
+    d = lambda i, j: tension_drive(kap[i], tau[i], kap[j] - kap[i], tau[j] - tau[i])
+    return {"normal->semicoiled": d(1, 2), "normal->coiled": d(1, 0), "coiled->normal": d(0, 1)}
 
 
 def plot(data: ForceExtensionData, res: dict, out_dir: Path) -> list:
@@ -110,11 +141,15 @@ def plot(data: ForceExtensionData, res: dict, out_dir: Path) -> list:
     for f, ls in (("coiled", ":"), ("normal", "--")):
         s = data.static[f]
         a.plot(s["extension"], s["force"], ls, color="0.3", lw=1.2, label=f"{f} alone (static)")
+    s = data.static["from normal"]
+    a.plot(s["extension"], s["force"], color="tab:orange", lw=1.3,
+           label=f"normal between coiled and semicoiled, {s['rate']:g} µm/s: no transformation")
     cmap = plt.get_cmap("viridis")
     for i, c in enumerate(data.curves):
         col = cmap(i / max(1, len(data.curves) - 1))
         a.plot(c["extension"], c["force"], color=col, lw=1.3, label=f"coiled ⇄ normal, {c['rate']:g} µm/s")
     a.axhspan(*DB_COILED, color="tab:red", alpha=0.12, label="Darnton & Berg 2007: 3–5 pN (from coiled)")
+    a.axhspan(*DB_NORMAL, color="tab:orange", alpha=0.08, label="Darnton & Berg 2007: 4–7 pN (from normal)")
     a.set_ylim(-2.0, 12.0)
     a.set_xlabel("extension x [µm]")
     a.set_ylabel("force on the free end F [pN]")
@@ -129,7 +164,7 @@ def plot(data: ForceExtensionData, res: dict, out_dir: Path) -> list:
     b.set_title(f"(b) rate dependence: dF/d ln v = {res['slope_force_up_per_ln_rate']:.2f} pN", fontsize=9)
     b.legend(fontsize=7)
     return save_figure(fig, out_dir, "force-extension",
-                       f"coiled filament pulled by a trap (k = {TRAP:g} pN/µm, L = {LENGTH:g} µm, M = 0)")
+                       f"coiled and normal filaments pulled by a trap (k = {TRAP:g} pN/µm, L = {LENGTH:g} µm, M = 0)")
 
 
 def write(out_dir: Path, data: ForceExtensionData, res: dict, quality: str) -> list:
@@ -156,7 +191,7 @@ def compare(res: dict, quality: str) -> Comparison:
     cmp = Comparison("force-extension", "force–extension of a coiled filament (Darnton & Berg 2007)",
                      quality)
     cmp.add(f"transformation force from coiled at {res['slowest_rate']:g} µm/s [paper: 3–5, "
-            "middle given]", sum(DB_COILED) / 2, res["force_up_slowest"], "pN", "pull_cycle, trap 10 pN/µm, default landscape; "
+            "middle given]", sum(DB_COILED) / 2, res["force_up_slowest"], "pN", "pull_cycle, trap 10 pN/µm, the target's landscape; "
             "largest force before half the joints are normal")
     lo, hi = min(res["force_up"]), max(res["force_up"])
     cmp.add(f"range over rates {min(res['rates']):g}–{max(res['rates']):g} µm/s [paper: 3–5 pN]",
@@ -164,14 +199,26 @@ def compare(res: dict, quality: str) -> Comparison:
     cmp.add("rate dependence of the threshold [paper: 'highly dependent on stretching rate']",
             "rate dependent", res["slope_force_up_per_ln_rate"], "pN per ln(µm/s)",
             "least-squares slope of F_up against ln v")
-    cmp.add("transformation force from normal [paper: 4–7]", "4–7", "not modelled", "pN",
-            "the form it goes to is not in the forms table (see docs/polymorphism.md)")
+    cmp.add("transformation force from normal [paper: 4–7]", "4–7",
+            f"none up to {res['normal_force_max']:.1f} (largest shift of φ from normal "
+            f"{res['normal_phi_away_max']:.1g})", "pN",
+            f"forms coiled, normal, semicoiled at {NORMAL_RATE:g} µm/s: the pull drives normal away "
+            "from both neighbours (docs/polymorphism.md)")
+    dr = res["normal_drive_per_pN"]
+    cmp.add("drive of a small pull per pN, normal → semicoiled / normal → coiled / coiled → normal "
+            "[sign: + transforms]", "+ from normal (their 'next, longer' form)",
+            f"{dr['normal->semicoiled']:+.2f} / {dr['normal->coiled']:+.2f} / {dr['coiled->normal']:+.2f}",
+            "pN/µm per pN", "rod.polymorph.tension_drive (Love §270 moment of an axial load)")
     down = [f for f in res["force_down"] if math.isfinite(f)]
     cmp.add("reverse transformation on relaxing [paper: observed]", "observed",
             f"{min(down):.2f} pN" if down else "none", "",
             "force where the normal fraction fell below 1/2 on the way back")
-    cmp.note("Landscape: the defaults of Polymorphism (barrier 1 pN, wall stiffness 8 pN·µm², friction "
-             "0.1 pN·s, equal well energies), not fitted to Darnton & Berg.")
+    cmp.note("Landscape: reproduce.force_extension.LANDSCAPE (barrier 1 pN, wall stiffness 8 pN·µm²; friction "
+             "0.1 pN·s and equal well energies as the defaults of Polymorphism), not fitted to Darnton & Berg.")
+    cmp.note("From normal: pulling drives a joint towards the less curved form (large loads: g = −A κ κ'); "
+             "normal (κ = 1.30/µm) is less curved than coiled (2.20) and semicoiled (2.72) and curly-1 (2.30), "
+             "so no form of the table is favoured; the form Darnton & Berg's normal filaments went to was not "
+             "identified from their text (only its abstract is stored).")
     cmp.note("Coiled form geometry (pitch 0.3 µm, diameter 0.9 µm) is a placeholder of Darnton & Berg's "
              "description (nearly zero pitch), from recall, unverified.")
     cmp.note(f"Loop areas ∮F dx (dissipated work) per rate: "
@@ -180,7 +227,8 @@ def compare(res: dict, quality: str) -> Comparison:
 
 
 def headline(res: dict, quality: str, seconds: float, files: list) -> dict:
-    return {"slowest_rate": res["slowest_rate"], "force_up_slowest": res["force_up_slowest"], "force_up": res["force_up"],
+    return {"normal_force_max": res["normal_force_max"], "normal_phi_away_max": res["normal_phi_away_max"],
+            "slowest_rate": res["slowest_rate"], "force_up_slowest": res["force_up_slowest"], "force_up": res["force_up"],
             "rates": res["rates"], "force_down": res["force_down"], "loop_area": res["loop_area"],
             "slope_force_up_per_ln_rate": res["slope_force_up_per_ln_rate"], "quality": quality,
             "wall_seconds": seconds, "files": [str(f) for f in files]}

@@ -165,6 +165,25 @@ def spinodal_drive(barrier: float, de: float = 0.0) -> float:
     return k * x * (1.0 - x) * (a - x)
 
 
+def tension_drive(kappa: float, tau: float, dkappa: float, dtau: float,
+                  bend_rigidity: float | None = None) -> float:
+    """Drive g = −∂E_rod/∂φ per length [pN] that an axial pull F on the free end exerts on a
+    joint of a long, stress-free helix (κ, signed τ) towards the form whose intrinsic strains
+    differ by (κ', τ') = (``dkappa``, ``dtau``), per pN of load; positive: the pull drives the
+    joint towards that form.
+
+    g = m·Δ with m the moment of the load about the joint (statics: independent of A and C).
+    Small loads (Love, *Mathematical Theory of Elasticity*, §270): the moment F R splits into
+    a twist F R²/ρ and a bend −F R b/ρ (R = κ/ω², b = τ/ω², ρ = 1/ω, ω² = κ² + τ²), so
+    g/F = κ (κ τ' − τ κ')/ω³. With ``bend_rigidity`` A: the limit of large loads instead,
+    where the helix is pulled straight and the joint carries the whole bending moment −A κ,
+    g = −A κ κ' (a finite drive, not per pN): pulling drives towards the less curved form."""
+    if bend_rigidity is not None:
+        return -bend_rigidity * kappa * dkappa
+    w = math.hypot(kappa, tau)
+    return kappa * (kappa * dtau - tau * dkappa) / w ** 3
+
+
 def wall_width(barrier: float, wall_stiffness: float) -> float:
     """Width √(2D/k) [µm] of a wall's tanh profile (k = 64·barrier)."""
     return math.sqrt(2.0 * wall_stiffness / (64.0 * barrier))

@@ -127,8 +127,9 @@ def test_noise_samples_the_boltzmann_weight_of_the_landscape():
     """Detailed balance: independent joints (D = 0) with noise kT in a two-well landscape
     (barrier 1.5 kT, wells 0.5 kT apart); the fraction of joints past the barrier top
     (x = a) against ∫ exp(−h v/kT) over that basin (quadrature of the landscape, independent
-    of the dynamics). Euler–Maruyama at a tenth of the stability step (≈ 1/20 of a well's
-    relaxation time): ≈ 90 hops per joint, statistical error ≈ 0.005."""
+    of the dynamics; φ lives on [0, 1], the forms, with reflecting ends). Euler–Maruyama at
+    a tenth of the stability step (≈ 1/20 of a well's relaxation time): ≈ 90 hops per
+    joint, statistical error ≈ 0.005."""
     n, h, kT, barrier, zeta = 200, 1.0, 1.0, 1.5, 1.0
     k = 64 * barrier
     eps = np.array([0.0, 0.5])
@@ -143,7 +144,8 @@ def test_noise_samples_the_boltzmann_weight_of_the_landscape():
         PM.advance(phi, steps * sub, steps, h, eps, np.full(1, k), 0.0, zeta, 0.0, 0.0, z, np.zeros(2),
                    np.zeros(2), False, kT, rng.standard_normal((steps, n)))
         frac.append(np.mean(phi > a))
-    grid = np.linspace(-3.0, 4.0, 28001)
+    assert np.all((phi >= 0.0) & (phi <= 1.0))
+    grid = np.linspace(0.0, 1.0, 4001)
     w = np.exp(-h * np.array([PM.landscape(p, eps, k)[0] for p in grid]) / kT)
     expected = np.trapezoid(w * (grid > a), grid) / np.trapezoid(w, grid)
     assert np.mean(frac[100:]) == pytest.approx(expected, abs=0.015)
@@ -342,3 +344,38 @@ def test_cli_barrier_per_pair(cli):
         code, _, err = cli("simulate", "--length", 4, "--time", 0.004, "--polymorphic",
                            "normal,semicoiled,curly1", "--polymorph-barrier", bad)
         assert_one_line_error(code, err, "polymorph_barrier")
+
+
+def test_a_joint_pushed_past_the_last_form_returns_under_the_opposite_stress():
+    """Beyond the last form the strains are held (no drive), so φ must stay within the
+    forms: a joint pushed outwards by a stress that wants an even more curled form sits at
+    curly-1 (φ = 2 exactly), and one that had got past it (φ = 2 + 1e-3) returns all the way
+    to normal once the rod, held in the normal shape, drives it back (the drive exceeds
+    the barriers: the normal helix stores A(Δκ)²/2 + C(Δτ)²/2 ≈ 70 pN in
+    curly-1’s intrinsic shape, the barriers are 0.25 pN). Without the bound the joint relaxes
+    back to φ = 2 from outside, where it feels no drive, and never crosses."""
+    pm = Polymorphism(forms=FORMS)
+    kap, tau = map(np.array, pm.strains(SHORT.filament))
+    n, h, A, C = 20, 0.2, 3.5, 3.5
+    eps, kk = np.zeros(3), np.array(pm.pair_stiffness())
+    sub = 0.5 * PM.stable_substep(h, kk.max(), pm.wall_stiffness, pm.friction, kap, tau, A, C)
+
+    def run(phi0, kappa, torsion):
+        strains = np.zeros((n, 3))
+        strains[:, 1], strains[:, 2] = kappa, torsion
+        phi = np.full(n, phi0)
+        PM.advance(phi, 2000 * sub, 2000, h, eps, kk, pm.wall_stiffness, pm.friction, A, C,
+                   strains, kap, tau, True, 0.0, np.zeros((1, n)))
+        return phi
+
+    beyond = run(1.9, 3 * kap[2] - 2 * kap[1], 3 * tau[2] - 2 * tau[1])
+    assert np.all(beyond == 2.0)
+    back = run(2.0 + 1e-3, kap[0], tau[0])
+    assert np.all(back < 1e-6)  # normal again (the well at φ = 0)
+    # with noise the walls reflect: φ never leaves [0, 2]
+    rng = np.random.default_rng(1)
+    phi = np.full(n, 1.99)
+    strains = np.zeros((n, 3))
+    PM.advance(phi, 200 * sub, 200, h, eps, kk, pm.wall_stiffness, pm.friction, A, C, strains,
+               kap, tau, False, 0.05, rng.standard_normal((200, n)))
+    assert np.all((phi >= 0.0) & (phi <= 2.0))

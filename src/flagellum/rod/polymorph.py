@@ -15,7 +15,8 @@ Energy besides the rod's (per length v [pN], continuum D [pN·µm²]), discretiz
 v between forms m, m+1 (x = φ − m) the quartic of the Nagumo (Zeldovich) equation,
 v = ε_m + k [x⁴/4 − (1 + a) x³/3 + a x²/2], v' = k x (x − 1)(x − a): minima at both forms,
 a = 1/2 + 6 Δε/k (k = 64 × the pair's barrier, one per neighbouring pair:
-:func:`pair_landscape`); outside the first and last form the parabola of its well. An overdamped
+:func:`pair_landscape`); outside the first and last form the parabola of its well, although
+the dynamics keeps φ within the forms (:func:`advance`). An overdamped
 dynamics, as for the order parameter of Srigiriraju & Powers, Phys. Rev. E 73, 011902
 (2006) (time-dependent Ginzburg–Landau), ::
 
@@ -113,17 +114,33 @@ def phi_rate(phi, h, eps, kk, D, zeta, A, C, strains, kap, tau, coupled, out):
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def advance(phi, dt, n_sub, h, eps, kk, D, zeta, A, C, strains, kap, tau, coupled, kT, normals):
     """Advance φ by ``dt`` in ``n_sub`` Euler(–Maruyama) steps; ``kk`` the pairs' well
-    stiffnesses (:func:`pair_landscape`); ``normals`` (n_sub, n) unit Gaussians for kT > 0."""
+    stiffnesses (:func:`pair_landscape`); ``normals`` (n_sub, n) unit Gaussians for kT > 0.
+
+    φ stays within the forms, [0, M−1]: beyond the last form the strains are held
+    (:func:`form_strains`), so the rod exerts no drive there and a joint pushed past it by
+    the stress would relax back only from outside and never cross into the next well; the
+    sequence of forms ends there (projection for the deterministic flow, reflection for
+    the noise)."""
     n = phi.shape[0]
     rate = np.empty(n)
     s = dt / n_sub
     amp = math.sqrt(2.0 * kT * s / (zeta * h)) if kT > 0.0 else 0.0
+    top = float(kap.shape[0] - 1)
     for i in range(n_sub):
         phi_rate(phi, h, eps, kk, D, zeta, A, C, strains, kap, tau, coupled, rate)
         for j in range(n):
             phi[j] += s * rate[j]
             if amp > 0.0:
+                # reflecting walls at the end forms: Euler–Maruyama of the reflected
+                # diffusion, whose stationary law is the Boltzmann weight on [0, top]
                 phi[j] += amp * normals[i, j]
+                if phi[j] < 0.0:
+                    phi[j] = -phi[j]
+                if phi[j] > top:
+                    phi[j] = 2.0 * top - phi[j]
+            # the projection onto [0, top]: the deterministic flow's boundary (and the
+            # rare noise kick wider than the whole range)
+            phi[j] = min(max(phi[j], 0.0), top)
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")

@@ -554,9 +554,10 @@ class Simulator:
         rotation rate about the local helix axis at the motor (paper Sec. 3.1.2).
         """
         fr = self.model.frames()  # at the last rhs call
-        t, a1 = fr.tangents[0], fr.reference[0]
-        b = np.stack([a1, -np.cross(t, a1), -t], axis=1)  # A diag(1, −1, −1)
-        raw = 2.0 * math.atan2(b[1, 0] - b[0, 1], 1.0 + np.trace(b))
+        (tx, ty, tz), (ax, ay, az) = fr.tangents[0].tolist(), fr.reference[0].tolist()
+        # B = [a1, −t × a1, −t] (columns): B10 − B01 = a1_y + (t × a1)_x and
+        # tr B = a1_x − (t × a1)_y − t_z, written out (np.cross costs more than the record)
+        raw = 2.0 * math.atan2(ay + (ty * az - tz * ay), 1.0 + ax - (tz * ax - tx * az) - tz)
         last = self._last_motor
         if last is None:
             twist = raw

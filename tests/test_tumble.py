@@ -242,6 +242,24 @@ def test_reversal_transforms_the_cell_s_filament_and_it_recovers():
 
 @pytest.mark.slow
 @pytest.mark.ci
+def test_a_wholly_curly1_filament_returns_to_normal():
+    """A reversal for 0.7 s (the target's landscape and set-up): the whole filament turns
+    curly-1, and at forward torque it returns through semicoiled to normal and the cell swims
+    on at its old speed (to 5 %). The return comes from the second pair's barrier of the
+    target, 0.1 pN: with 0.25 pN the filament stays curly-1 (one run, docs/polymorphism.md,
+    "Run and tumble"; this test then fails on the final share of normal)."""
+    from flagellum.reproduce.tumble import LANDSCAPE as TARGET, RUN_AFTER, RUN_BEFORE
+
+    tr = _cell_run((RUN_BEFORE, RUN_BEFORE + 0.7), RUN_BEFORE + 0.7 + RUN_AFTER, TARGET)
+    s = tr.tumble_summary()
+    assert s.peak_fractions["curly1"] == 1.0
+    assert s.normal_fraction_final == 1.0
+    assert 0.0 < s.recovery_time < RUN_AFTER - 0.1
+    assert s.speed_after == pytest.approx(s.speed_before, rel=0.05)
+
+
+@pytest.mark.slow
+@pytest.mark.ci
 def test_run_without_reversal_has_a_wobble_limited_tumble_angle():
     """The same cell without reversal: the 'tumble angle' between two windows of one steady
     run is only the wobble's tilt of each window's least-squares velocity, below the closed

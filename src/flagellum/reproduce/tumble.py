@@ -11,8 +11,10 @@ d (and over the phase of the swimming at which the motor reverses: the body has 
 Brownian motion, so this is what spreads the angles) gives the tumble-angle distribution,
 compared with the measured mean of Berg & Brown (1972).
 
-The landscape (:data:`LANDSCAPE`) is the package default (barrier 0.25 pN, fitted to Hotani's
-threshold torque of normal → semicoiled; soft walls). With the forms' geometry of Darnton et
+The landscape (:data:`LANDSCAPE`) has the package default's barrier between normal and
+semicoiled (0.25 pN, fitted to Hotani's threshold torque of normal → semicoiled), a lower one
+between semicoiled and curly-1 (0.1 pN, so that a wholly curly-1 filament returns) and soft
+walls. With the forms' geometry of Darnton et
 al. (2007) (:data:`flagellum.params.POLYMORPHIC_FORMS`) a semicoiled domain nucleates at the
 hook under the reversed motor and grows along the filament, a curly-1 domain follows it (the
 reversed motor's twist drives semicoiled towards the more twisted curly-1), and back at
@@ -41,12 +43,17 @@ BODY = {"body_radius": 0.44, "body_aspect": 1.25 / 0.44, "hook": "elastic", "hoo
 #: the motor torque [pN·µm]: the stall torque of the E. coli motor (H. C. Berg, Annu. Rev.
 #: Biochem. 72, 19 (2003)), on whose plateau the swimming cell's motor runs (docs/motor.md)
 TORQUE = 1.3
-#: the polymorphic landscape of this target: the package defaults (barrier 0.25 pN for both
-#: pairs, fitted to Hotani's threshold of normal → semicoiled; walls 0.5 pN·µm², equal wells)
-LANDSCAPE = {"forms": ("normal", "semicoiled", "curly1"), "barrier": 0.25, "wall_stiffness": 0.5}
-#: forward run before the reversal and after it [s] (after: the recovery takes up to 0.41 s,
-#: docs/polymorphism.md, then the averaging window); averaging window of each run [s]
-RUN_BEFORE, RUN_AFTER, WINDOW = 0.15, 0.6, 0.1
+#: the polymorphic landscape of this target: barrier 0.25 pN between normal and semicoiled
+#: (the package default, fitted to Hotani's threshold of normal → semicoiled), 0.1 pN between
+#: semicoiled and curly-1 (chosen so that a wholly curly-1 filament returns at the forward
+#: stall torque, as real filaments do: Darnton et al. 2007; with 0.25 it stays curly-1,
+#: docs/polymorphism.md); walls 0.5 pN·µm², equal wells
+LANDSCAPE = {"forms": ("normal", "semicoiled", "curly1"), "barrier": (0.25, 0.1),
+             "wall_stiffness": 0.5}
+#: forward run before the reversal and after it [s] (after: a wholly curly-1 filament is
+#: normal again 0.74 s after the motor turns forward, docs/polymorphism.md, then the
+#: averaging window); averaging window of each run [s]
+RUN_BEFORE, RUN_AFTER, WINDOW = 0.15, 1.0, 0.1
 #: reversal durations [s] (CW intervals; E. coli's are ~0.1–1 s) and the shifts of the
 #: reversal time [s] (phases of the body's helical path, whose period is ≈ 20 ms)
 DURATIONS = {"quick": (0.1, 0.2, 0.35), "full": (0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0)}
@@ -280,10 +287,12 @@ def compare(data: TumbleData, stats: dict, quality: str) -> Comparison:
             "from the motor's return to forward; mean over the runs")
     cmp.note(f"Model: one filament of L = {LENGTH:g} µm (the paper's helix), an elastic hook "
              f"(k = {BODY['hook_stiffness']:g} pN·µm), a spheroidal body 2.5 × 0.88 µm, torque "
-             f"±{TORQUE:g} pN·µm, RFT, no thermal noise. Landscape: barrier "
-             f"{LANDSCAPE['barrier']:g} pN, wall stiffness {LANDSCAPE['wall_stiffness']:g} "
-             "pN·µm², equal well energies (the package defaults: the barrier fitted to "
-             "Hotani's −1.1 pN·µm for normal → semicoiled; see docs/polymorphism.md).")
+             f"±{TORQUE:g} pN·µm, RFT, no thermal noise. Landscape: barriers "
+             + " / ".join(f"{b:g}" for b in LANDSCAPE["barrier"])
+             + f" pN (normal–semicoiled / semicoiled–curly-1), wall stiffness "
+             f"{LANDSCAPE['wall_stiffness']:g} pN·µm², equal well energies (the first barrier "
+             "fitted to Hotani's −1.1 pN·µm for normal → semicoiled, the second chosen so that "
+             "a wholly curly-1 filament returns; see docs/polymorphism.md).")
     cmp.note("E. coli tumbles with a bundle of several flagella: the CW filament leaves the "
              "bundle and pulls the body round. A cell with one flagellum has no bundle to "
              "break up, so a small tumble angle is what this model can give; the comparison "

@@ -148,7 +148,7 @@ def test_chain_jacobian_agrees_with_the_coloured_differences():
 
 def test_hook_rows_follow_the_right_hand_side():
     """The hook balance :func:`~flagellum.rod.kernels.hook_of` that the chain rule differentiates
-    gives the right-hand side’s ẏ[0:3] and θ̇0 (through the Jacobian’s own hook rows) to
+    gives the right-hand side's ẏ[0:3] and θ̇0 (the kernel keeps its own inline copy) to
     round-off, for every drive and hook."""
     rng = np.random.default_rng(8)
     for _, boundary, motor in CASES:

@@ -618,8 +618,9 @@ def hook_of(prm, iprm, el, hx, hy, hz, tx, ty, tz, gx, gy, gz, gth):
     """The hook frame's angular velocity in the lab (Eq. (12)) from its tangent t, its G_t
     (g) and G_Θ (gth) and an external torque (hx, hy, hz), with the motor's drive (a clamp's
     or a law's torque solved, :func:`motor_torque`): (ω (3), motor torque, motor speed
-    relative to the body); the hook part of :func:`rhs` and the rows the chain-rule Jacobian
-    differentiates (:mod:`flagellum.rod.jacobian`)."""
+    relative to the body). The same operations as the hook part of :func:`rhs`, which keeps
+    them inline (a call there changes the last bit of θ̇0 where LLVM contracts differently);
+    tests/test_rod_jacobian.py checks the two agree."""
     h, gperp, grot = prm[P_H], prm[P_GPERP], prm[P_GROT]
     qx, qy, qz = _cross(tx, ty, tz, gx, gy, gz)
     mx = hx - (qx + gth * tx)
@@ -758,11 +759,38 @@ def _rhs_kernel(GENERAL):
             dy = (ydot[o + 1] - ydot[p + 1]) * inv
             dz = (ydot[o + 2] - ydot[p + 2]) * inv
             ydot[o + 3] = om - (S[i, 0] * dx + S[i, 1] * dy + S[i, 2] * dz)  # s ⟂ t
-        # hook frame: torque balance on frame 0 (Eq. (12))
+        # hook frame: torque balance on frame 0
         tx, ty, tz = T[0, 0], T[0, 1], T[0, 2]
-        wx, wy, wz, torque, relative = hook_of(prm, iprm, el, ext_hook[0], ext_hook[1],
-                                               ext_hook[2], tx, ty, tz, GT[0, 0], GT[0, 1],
-                                               GT[0, 2], GTH[0])
+        qx, qy, qz = _cross(tx, ty, tz, GT[0, 0], GT[0, 1], GT[0, 2])
+        mx = ext_hook[0] - (qx + GTH[0] * tx)
+        my = ext_hook[1] - (qy + GTH[0] * ty)
+        if iprm[I_DRIVE] == DRIVE_TORQUE:
+            torque = el * prm[P_TORQUE]
+            mz = ext_hook[2] + el * prm[P_TORQUE] - (qz + GTH[0] * tz)
+        else:  # a clamp's or a law's drive value is no torque: its torque is added below, once
+            # solved (applying the drive value and taking it off again loses digits)
+            torque = 0.0
+            mz = ext_hook[2] - (qz + GTH[0] * tz)
+        mt = mx * tx + my * ty + mz * tz
+        zt, zp = L.hook_friction(h, gperp, grot, iprm[I_HOOK] == HOOK_CLAMPED)
+        wt = mt / zt
+        if zp == 0.0:  # clamped: turns about its tangent only
+            wx, wy, wz = wt * tx, wt * ty, wt * tz
+        else:
+            ipp = 1.0 / zp
+            wx = wt * tx + ipp * (mx - mt * tx)
+            wy = wt * ty + ipp * (my - mt * ty)
+            wz = wt * tz + ipp * (mz - mt * tz)
+        if iprm[I_DRIVE] != DRIVE_TORQUE:  # speed clamp or law: the rates are linear in the
+            # torque M e_z, and w are the rates without it: add the solved motor torque
+            torque = 0.0 if el == 0.0 else motor_torque(prm, iprm, wz, tz, zt, zp)
+            dm = torque
+            wt = dm * tz / zt
+            wx, wy, wz = wx + wt * tx, wy + wt * ty, wz + wt * tz
+            if zp != 0.0:
+                ipp = dm / zp
+                wx, wy, wz = wx - ipp * tz * tx, wy - ipp * tz * ty, wz + ipp * (1.0 - tz * tz)
+        relative = wz + prm[P_BODY] * torque
         if GENERAL and cell:  # the cell's hook frame (cell_motion) replaces the rod's
             torque, wx, wy, wz = cm[0], cm[1], cm[2], cm[3]
             relative = cm[17]

@@ -428,3 +428,27 @@ def test_reproduce_tumble_writes_its_files_and_table(tmp_path, monkeypatch):
         from flagellum.reproduce.shared import Cache
 
         T.compute("quick", Cache(hydrodynamics=Hydrodynamics(model="sbt")))
+
+
+def test_the_target_s_runs_are_thermal_with_a_seed_each(monkeypatch):
+    """With ``THERMAL`` the sweep gives every run (and the control) its own seed (without,
+    none: the default); a run with a seed is a thermal run (the same seed the same path, another seed another path, and no seed the
+    deterministic run). Short windows (0.04 s) for speed."""
+    import flagellum.reproduce.tumble as T
+
+    seen = []
+    monkeypatch.setattr(T, "pmap", lambda fun, jobs: seen.extend(jobs) or [{"error": "-"}] * len(jobs))
+    T.compute("quick")
+    assert [j["seed"] for j in seen] == [None] * (len(T.DURATIONS["quick"]) + 1)  # the default
+    seen.clear()
+    monkeypatch.setattr(T, "THERMAL", True)
+    T.compute("quick")
+    assert [j["seed"] for j in seen] == list(range(1, len(T.DURATIONS["quick"]) + 2))
+    monkeypatch.setattr(T, "RUN_BEFORE", 0.02)
+    monkeypatch.setattr(T, "RUN_AFTER", 0.02)
+    runs = [T.run_one({"duration": 0.0, "seed": s, "window": 0.01}) for s in (1, 1, 2, None)]
+    assert all("error" not in r for r in runs), runs
+    pos = [r["series"]["body_position"] for r in runs]
+    assert np.array_equal(pos[0], pos[1])
+    assert not np.allclose(pos[0], pos[2]) and not np.allclose(pos[0], pos[3])
+    assert runs[0]["seed"] == 1.0 and math.isnan(runs[3]["seed"])

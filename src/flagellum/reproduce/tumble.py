@@ -7,9 +7,10 @@ puts its filament (shortened, see :data:`LENGTH`) on an E. coli-sized cell body
 turns it forward again, and measures (:func:`flagellum.analysis.tumble.tumble`) the tumble
 angle between the mean swimming directions before and after, the swimming speeds, and the
 time course of the transformation (normal → semicoiled → …) and the recovery. A sweep over
-d (and over the phase of the swimming at which the motor reverses: the body has no
-Brownian motion, so this is what spreads the angles) gives the tumble-angle distribution,
-compared with the measured mean of Berg & Brown (1972).
+d and over the phase of the swimming at which the motor reverses gives the tumble-angle
+distribution, compared with the measured mean and spread of Berg & Brown (1972). The runs
+are deterministic unless :data:`THERMAL` (or a run's ``seed``) adds the filament's and the
+body's Brownian motion (docs/motor.md, "Whole cell").
 
 The landscape (:data:`LANDSCAPE`) has the package default's barrier between normal and
 semicoiled (0.25 pN, fitted to Hotani's threshold torque of normal → semicoiled), a lower one
@@ -58,6 +59,11 @@ RUN_BEFORE, RUN_AFTER, WINDOW = 0.15, 1.0, 0.1
 #: reversal time [s] (phases of the body's helical path, whose period is ≈ 20 ms)
 DURATIONS = {"quick": (0.1, 0.2, 0.35), "full": (0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0)}
 PHASES = {"quick": (0.0,), "full": (0.0, 0.007)}
+#: thermal noise in the sweep's runs (kT of the package's fluid; run i has seed i + 1, so
+#: the sweep is reproducible). Off: the tumble angle compares the direction before the
+#: reversal with that of the last window, ≈ 1 s after the recovery, and with noise the
+#: cell's Brownian reorientation over that time is larger than the tumble (docs/polymorphism.md)
+THERMAL = False
 #: records per second
 RATE = 500
 #: the measured mean tumble angle [deg] and its standard deviation: wild-type E. coli,
@@ -67,7 +73,8 @@ BERG_BROWN_ANGLE, BERG_BROWN_SD = 68.0, 36.0
 
 def run_one(spec: dict) -> dict:
     """One cell: forward for ``RUN_BEFORE + phase``, reversed for ``duration`` (0: never),
-    forward for ``RUN_AFTER``. Returns the :class:`~flagellum.analysis.tumble.TumbleSummary`
+    forward for ``RUN_AFTER``; with thermal noise of seed ``spec["seed"]`` unless it is None
+    (the fixed-step implicit scheme then, as for every thermal run). Returns the :class:`~flagellum.analysis.tumble.TumbleSummary`
     fields and the time series of the figure (or ``error``)."""
     from ..analysis.tumble import tumble
     from ..motor import Boundary, Motor
@@ -84,10 +91,13 @@ def run_one(spec: dict) -> dict:
     motor = Motor(spec.get("torque", TORQUE), reversals=(t_on, t_off) if d > 0 else None)
     # the lab frame: the body wobbles and the motor turns both ways, so no co-rotating frame
     # fits for long
+    seed = spec.get("seed")
+    thermal = seed is not None
+    solver = SolverOptions(frame="lab", method="implicit") if thermal else SolverOptions(frame="lab")
     sim = Simulator(params, motor, Boundary(anchor="free", **spec.get("body", BODY)),
-                    polymorphism=pm, solver=SolverOptions(frame="lab"))
+                    polymorphism=pm, thermal=thermal, seed=seed, solver=solver)
     timer = Timer()
-    out = {"duration": d, "phase": phase}
+    out = {"duration": d, "phase": phase, "seed": math.nan if seed is None else float(seed)}
     try:
         tr = sim.run(t_end, save_every=1.0 / RATE)
     except Exception as exc:  # noqa: BLE001 - one failed run is reported, the sweep goes on
@@ -125,6 +135,8 @@ def compute(quality: str, cache=None) -> TumbleData:
     jobs = [{"duration": d, "phase": p, "cost": d + RUN_BEFORE + RUN_AFTER}
             for d in DURATIONS[quality] for p in PHASES[quality]]
     jobs.append({"duration": 0.0, "phase": 0.0, "cost": RUN_BEFORE + RUN_AFTER})
+    for i, job in enumerate(jobs):
+        job["seed"] = i + 1 if THERMAL else None
     res = pmap(run_one, jobs)
     return TumbleData(tuple(res[:-1]), res[-1])
 
@@ -230,7 +242,7 @@ def plot(data: TumbleData, stats: dict, quality: str, out_dir: Path) -> list[Pat
 COLUMNS = ("duration", "phase", "tumble_angle_deg", "axis_tumble_angle_deg", "speed_before",
            "speed_after", "reversal_start", "reversal_end", "transform_time", "recovery_time",
            "transformed_fraction_max", "normal_fraction_final", "peak_semicoiled", "peak_curly1",
-           "sequence", "wall_seconds")
+           "sequence", "wall_seconds", "seed")
 UNITS = {"duration": "s", "phase": "s", "tumble_angle_deg": "deg", "axis_tumble_angle_deg": "deg",
          "speed_before": "µm/s", "speed_after": "µm/s", "reversal_start": "s", "reversal_end": "s",
          "transform_time": "s", "recovery_time": "s", "wall_seconds": "s"}
@@ -264,7 +276,8 @@ def compare(data: TumbleData, stats: dict, quality: str) -> Comparison:
             f"(of {stats['runs'] - stats['failed']}: durations × phases), swimming "
             "directions over 0.1 s before and at the end")
     cmp.add("sd of the tumble angle (Berg & Brown 1972)", BERG_BROWN_SD, stats["tumble_angle_std_deg"],
-            "deg", "over the same runs (deterministic: spread from durations and phases)")
+            "deg", "over the same runs (spread from the noise, durations and phases)"
+            if THERMAL else "over the same runs (deterministic: spread from durations and phases)")
     cmp.add("median and quartiles of the tumble angle", None,
             f"{stats['tumble_angle_median_deg']:.1f} ({stats['tumble_angle_q25_deg']:.1f}–"
             f"{stats['tumble_angle_q75_deg']:.1f})", "deg", "over the same runs")
@@ -272,7 +285,9 @@ def compare(data: TumbleData, stats: dict, quality: str) -> Comparison:
             stats["tumble_angle_mean_cos"], "", "over the same runs")
     cmp.add("runs in which curly-1 held more than half the joints", None,
             stats["curly1_reached"], "", f"of {stats['runs'] - stats['failed']}")
-    cmp.add("tumble angle without reversal (wobble only)", 0.0, stats["control_angle_deg"], "deg",
+    cmp.add("tumble angle without reversal (" + ("wobble and Brownian motion" if THERMAL
+                                                 else "wobble only") + ")",
+            None if THERMAL else 0.0, stats["control_angle_deg"], "deg",
             "the same windows, motor never reversed")
     cmp.add("swimming speed before (E. coli: 29 ± 6 µm/s, Darnton et al. 2007)", 29.0,
             stats["speed_before"], "µm/s", "net speed |V̄| over the window before the reversal")
@@ -287,7 +302,9 @@ def compare(data: TumbleData, stats: dict, quality: str) -> Comparison:
             "from the motor's return to forward; mean over the runs")
     cmp.note(f"Model: one filament of L = {LENGTH:g} µm (the paper's helix), an elastic hook "
              f"(k = {BODY['hook_stiffness']:g} pN·µm), a spheroidal body 2.5 × 0.88 µm, torque "
-             f"±{TORQUE:g} pN·µm, RFT, no thermal noise. Landscape: barriers "
+             f"±{TORQUE:g} pN·µm, RFT, "
+             + ("thermal noise (kT = 4.1e-3 pN·µm, a seed per run)" if THERMAL else "no thermal noise")
+             + ". Landscape: barriers "
              + " / ".join(f"{b:g}" for b in LANDSCAPE["barrier"])
              + f" pN (normal–semicoiled / semicoiled–curly-1), wall stiffness "
              f"{LANDSCAPE['wall_stiffness']:g} pN·µm², equal well energies (the first barrier "

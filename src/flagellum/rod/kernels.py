@@ -619,8 +619,9 @@ def hook_of(prm, iprm, el, hx, hy, hz, tx, ty, tz, gx, gy, gz, gth):
     (g) and G_Θ (gth) and an external torque (hx, hy, hz), with the motor's drive (a clamp's
     or a law's torque solved, :func:`motor_torque`): (ω (3), motor torque, motor speed
     relative to the body). The same operations as the hook part of :func:`rhs`, which keeps
-    them inline (a call there changes the last bit of θ̇0 where LLVM contracts differently);
-    tests/test_rod_jacobian.py checks the two agree."""
+    them inline (a call there changes the last bit of θ̇0 where LLVM contracts differently:
+    the pruned and general kernels' coloured Jacobians then differ in the last bit,
+    tests/test_kernel_variants.py); tests/test_rod_jacobian.py checks the two agree."""
     h, gperp, grot = prm[P_H], prm[P_GPERP], prm[P_GROT]
     qx, qy, qz = _cross(tx, ty, tz, gx, gy, gz)
     mx = hx - (qx + gth * tx)

@@ -74,8 +74,9 @@ BERG_BROWN_ANGLE, BERG_BROWN_SD = 68.0, 36.0
 def run_one(spec: dict) -> dict:
     """One cell: forward for ``RUN_BEFORE + phase``, reversed for ``duration`` (0: never),
     forward for ``RUN_AFTER``; with thermal noise of seed ``spec["seed"]`` unless it is None
-    (the fixed-step implicit scheme then, as for every thermal run). Returns the :class:`~flagellum.analysis.tumble.TumbleSummary`
-    fields and the time series of the figure (or ``error``)."""
+    (the fixed-step implicit scheme then, as for every thermal run). Returns the
+    :class:`~flagellum.analysis.tumble.TumbleSummary` fields and the time series of the
+    figure (or ``error``)."""
     from ..analysis.tumble import tumble
     from ..motor import Boundary, Motor
     from ..params import Params, Polymorphism

@@ -64,6 +64,10 @@ def test_tumble_angle_of_a_known_rotation(theta_deg):
     assert s.speed_before == pytest.approx(30.0, rel=1e-10)
     assert s.speed_after == pytest.approx(30.0, rel=1e-10)
     assert math.isnan(s.transform_time)  # no polymorph given
+    # without polymorphic state the recovered window starts at t_off (0.5 … 0.6 s, inside
+    # the straight second run)
+    assert s.settle_time == 0.0
+    assert s.recovered_tumble_angle_deg == pytest.approx(theta_deg, abs=1e-7)
 
 
 def _wobble_bound(v, r, omega, window):
@@ -132,6 +136,11 @@ def test_time_course_of_a_synthetic_transformation():
     assert s.transform_time == pytest.approx(11 / 40, abs=1e-3)
     assert s.recovery_time == pytest.approx(10 / 40, abs=1e-3)
     assert s.transformed_fraction_max == 1.0 and s.normal_fraction_final == 1.0
+    # wholly normal again when the last of the 20 joints has turned back, t_off + 20/40 s;
+    # the window from then on sees the second run's straight motion: the angle is θ
+    assert s.settle_time == pytest.approx(20 / 40, abs=1e-3)
+    assert s.recovered_tumble_angle_deg == pytest.approx(math.degrees(0.3), abs=1e-7)
+    assert s.speed_recovered == pytest.approx(30.0, rel=1e-10)
     assert s.sequence == ("semicoiled",)
     assert s.peak_fractions == {"normal": 1.0, "semicoiled": 1.0, "curly1": 0.0}
 
@@ -145,6 +154,10 @@ def test_analysis_helpers_and_bad_windows():
         tumble(t, pos, axis, (0.5, 0.2))
     with pytest.raises(ParameterError, match="window"):
         tumble(t, pos, axis, (0.2, 0.5), window=0.0)
+    # a record that ends before the window after the recovery is full has no angle there
+    t, pos, axis = _swimmer(0.3, t_end=0.55)
+    s = tumble(t, pos, axis, (0.2, 0.5), window=0.1)
+    assert math.isnan(s.recovered_tumble_angle_deg) and math.isnan(s.speed_recovered)
 
 
 def test_angle_distribution_of_random_directions_against_the_closed_form():
@@ -390,13 +403,16 @@ def test_reproduce_tumble_writes_its_files_and_table(tmp_path, monkeypatch):
         d = job["duration"]
         theta = 40.0 * d / 0.35 if d > 0 else 0.0
         t, pos, axis = _swimmer(math.radians(theta), t_on=T.RUN_BEFORE, t_off=T.RUN_BEFORE + d + 1e-9,
-                                t_end=T.RUN_BEFORE + d + T.RUN_AFTER, rate=T.RATE)
+                                t_end=T.RUN_BEFORE + d + T.RUN_AFTER + job.get("extra", 0.0),
+                                rate=T.RATE)
         # the longest reversal's filament stays transformed (no run after it: left out)
         back = d < max(T.DURATIONS["quick"])
         k = np.clip(np.floor((t - T.RUN_BEFORE) * 40), 0, 20) * ((t < T.RUN_BEFORE + d + 0.1) | (not back))
         phi = (np.arange(20)[None, :] < k[:, None]).astype(float)
         s = tumble(t, pos, axis, (T.RUN_BEFORE, T.RUN_BEFORE + d + 1e-9), 0.1, phi, T.LANDSCAPE["forms"])
-        out = {"duration": d, "phase": job["phase"], **s.to_dict(), "wall_seconds": 0.0}
+        out = {"duration": d, "phase": job["phase"], **s.to_dict(), "wall_seconds": 0.0,
+               "lag": s.reversal_end + s.settle_time - s.reversal_start,
+               "end_lag": t[-1] - 0.1 - s.reversal_start}
         out.pop("peak_fractions")
         out.update({f"peak_{f}": v for f, v in s.peak_fractions.items()})
         out["series"] = {"t": t, "torque": np.ones_like(t), "fractions": fractions(phi, 3),
@@ -409,6 +425,13 @@ def test_reproduce_tumble_writes_its_files_and_table(tmp_path, monkeypatch):
     assert res["runs"] == len(angles) + 1 and res["failed"] == 0 and res["not_recovered"] == 1
     assert res["tumble_angle_mean_deg"] == pytest.approx(np.mean(angles), abs=1e-6)
     assert res["control_angle_deg"] == pytest.approx(0.0, abs=1e-6)
+    # the stand-ins are wholly normal again 0.1 s after t_off and swim straight from then on:
+    # right after the recovery the angle is already the final one; the straight control
+    # has not turned over the same delay
+    assert res["settle_time"] == pytest.approx(0.1, abs=2.0 / T.RATE)
+    assert res["recovered_angle_mean_deg"] == pytest.approx(np.mean(angles), abs=1e-6)
+    assert res["recovered_angles"] == len(angles)
+    assert res["control_recovered_angle_deg"] == pytest.approx(0.0, abs=1e-6)
     out = tmp_path / "tumble"
     assert res["tumble_angle_median_deg"] == pytest.approx(np.median(angles), abs=1e-6)
     assert res["tumble_angle_mean_cos"] == pytest.approx(np.mean(np.cos(np.radians(angles))), abs=1e-9)
@@ -423,15 +446,22 @@ def test_reproduce_tumble_writes_its_files_and_table(tmp_path, monkeypatch):
     assert len(hist) == 1 + len(res["histogram_counts"])  # the header, one row per bin
     table = (out / "comparison.md").read_text()
     assert "Berg & Brown" in table and "| 68 |" in table and "normal → semicoiled" in table
-    with pytest.raises(ParameterError, match="hydrodynamics"):
-        from flagellum.hydro.options import Hydrodynamics
-        from flagellum.reproduce.shared import Cache
+    from flagellum.hydro.options import Hydrodynamics
+    from flagellum.reproduce.shared import Cache
 
-        T.compute("quick", Cache(hydrodynamics=Hydrodynamics(model="sbt")))
+    sbt = Cache(hydrodynamics=Hydrodynamics(model="sbt"))
+    seen = []
+    monkeypatch.setattr(T, "pmap", lambda fun, jobs: seen.extend(jobs) or [fake(j) for j in jobs])
+    assert T.compute("quick", sbt).hydrodynamics == "sbt"
+    assert all(j["hydrodynamics"]["model"] == "sbt" for j in seen)  # every run gets the mobility
+    monkeypatch.setattr(T, "THERMAL", True)
+    with pytest.raises(ParameterError, match="hydrodynamics"):  # no thermal cell with SBT
+        T.compute("quick", sbt)
 
 
 def test_the_target_s_runs_are_thermal_with_a_seed_each(monkeypatch):
-    """With ``THERMAL`` the sweep gives every run (and the control) its own seed (without,
+    """With ``THERMAL`` the sweep runs each setting ``THERMAL_REPEATS`` times and gives every
+    run (and the control) its own seed (without,
     none: the default); a run with a seed is a thermal run (the same seed the same path, another seed another path, and no seed the
     deterministic run). Short windows (0.04 s) for speed."""
     import flagellum.reproduce.tumble as T
@@ -443,7 +473,10 @@ def test_the_target_s_runs_are_thermal_with_a_seed_each(monkeypatch):
     seen.clear()
     monkeypatch.setattr(T, "THERMAL", True)
     T.compute("quick")
-    assert [j["seed"] for j in seen] == list(range(1, len(T.DURATIONS["quick"]) + 2))
+    n = len(T.DURATIONS["quick"]) * T.THERMAL_REPEATS  # several runs per setting, then the control
+    assert [j["seed"] for j in seen] == list(range(1, n + 2))
+    assert [j["duration"] for j in seen[:-1]] == [d for d in T.DURATIONS["quick"]
+                                                   for _ in range(T.THERMAL_REPEATS)]
     monkeypatch.setattr(T, "RUN_BEFORE", 0.02)
     monkeypatch.setattr(T, "RUN_AFTER", 0.02)
     runs = [T.run_one({"duration": 0.0, "seed": s, "window": 0.01}) for s in (1, 1, 2, None)]
@@ -452,3 +485,36 @@ def test_the_target_s_runs_are_thermal_with_a_seed_each(monkeypatch):
     assert np.array_equal(pos[0], pos[1])
     assert not np.allclose(pos[0], pos[2]) and not np.allclose(pos[0], pos[3])
     assert runs[0]["seed"] == 1.0 and math.isnan(runs[3]["seed"])
+
+
+def test_the_target_s_cell_swims_slower_with_slender_body_hydrodynamics(monkeypatch):
+    """``reproduce tumble --hydrodynamics sbt``: the runs use the nonlocal mobility, whose
+    thrust per torque is lower than RFT's (docs/hydrodynamics.md: about 0.6 against 1.02 /µm
+    for the rigid helix), so the same cell at the same torque swims slower (short windows,
+    no reversal)."""
+    import flagellum.reproduce.tumble as T
+
+    monkeypatch.setattr(T, "RUN_BEFORE", 0.03)
+    monkeypatch.setattr(T, "RUN_AFTER", 0.01)
+    speed = {}
+    for model in ("rft", "sbt"):
+        r = T.run_one({"duration": 0.0, "window": 0.02, "hydrodynamics": {"model": model}})
+        assert "error" not in r, r
+        speed[model] = r["speed_before"]
+    assert 0.3 * speed["rft"] < speed["sbt"] < 0.95 * speed["rft"]
+
+
+def test_control_turn_over_a_lag_of_a_cell_on_a_circle():
+    """The control's turn (``reproduce.tumble._control_angle``) on a circular path at the
+    angular rate Ω: by symmetry each window's least-squares velocity points along the
+    path's tangent at the window's middle, so two windows whose middles are lag + W apart
+    differ by Ω (lag + W) (closed form), at every start time along the record."""
+    import flagellum.reproduce.tumble as T
+
+    omega, v, w = 0.8, 30.0, 0.1
+    t = np.arange(0.0, 2.0 + 1e-9, 1.0 / T.RATE)
+    pos = (v / omega) * np.stack([np.cos(omega * t), np.sin(omega * t), 0 * t], axis=1)
+    control = {"series": {"t": t, "body_position": pos}, "window": w}
+    for lag in (0.3, 0.9):
+        assert T._control_angle(control, lag) == pytest.approx(math.degrees(omega * (lag + w)), rel=1e-6)
+    assert math.isnan(T._control_angle(control, 1.9))  # no pair of windows fits

@@ -212,7 +212,8 @@ class Trajectory:
                        window: float | None = None):
         """The tumble of a free-swimming cell (:func:`flagellum.analysis.tumble.tumble`):
         the angle between its mean swimming directions before the reversal ``(t_on, t_off)``
-        and over the last ``window`` [s] of the run, the speeds, and for a polymorphic run the
+        and over the last ``window`` [s] of the run (and over the ``window`` right after the
+        filament is wholly back in its first form), the speeds, and for a polymorphic run the
         time course of the transformation. Default ``reversal``: the motor's first two
         switching times; default ``window``: 0.1 s, shortened to the time available."""
         from .analysis.tumble import WINDOW, tumble

@@ -11,7 +11,10 @@ turns of its helical path, which averages the wobble out; the same velocity as
 
 Windows: before the reversal, ``[t_on − window, t_on]``; after recovery, the last ``window``
 of the record (the run must go on long enough after the motor turns forward again for the
-filament to recover; ``recovery_time`` says when it did). numpy only.
+filament to recover; ``recovery_time`` says when it did); and, for runs with thermal noise,
+in which the body's Brownian rotation over the rest of the record adds to the tumble, the
+first ``window`` after the first form holds every joint again (``settle_time``; right after
+t_off for a record without polymorphic state). numpy only.
 """
 
 from __future__ import annotations
@@ -62,6 +65,9 @@ class TumbleSummary:
     recovery_time: float  #: t − t_off at which it holds half the joints again
     transformed_fraction_max: float  #: largest share of joints not in the first form
     normal_fraction_final: float  #: share of joints in the first form at the end
+    settle_time: float = math.nan  #: t − t_off at which the first form holds every joint again
+    recovered_tumble_angle_deg: float = math.nan  #: before against the window from t_off + settle_time
+    speed_recovered: float = math.nan  #: net swimming speed over that window
     peak_fractions: dict | None = None  #: form → largest share of the joints during the tumble
     sequence: tuple = ()  #: the forms in order of first appearance after t_on
 
@@ -96,6 +102,7 @@ def tumble(t, position, axis, reversal: tuple[float, float], window: float = WIN
     extra = dict(transform_time=math.nan, recovery_time=math.nan,
                  transformed_fraction_max=math.nan, normal_fraction_final=math.nan)
     peaks, sequence = None, ()
+    settle = 0.0
     if polymorph is not None:
         phi = np.asarray(polymorph, float)
         names = list(forms) if forms is not None else [str(i) for i in range(int(np.ceil(phi.max())) + 1)]
@@ -111,6 +118,9 @@ def tumble(t, position, axis, reversal: tuple[float, float], window: float = WIN
             rec = up[t[up] > t[down[0]]] if len(up) else up
             if len(rec):
                 extra["recovery_time"] = float(t[rec[0]] - t_off)
+        # wholly back in the first form: the first record from t_off on with every joint in it
+        back = np.flatnonzero((t >= t_off) & (normal >= 1.0))
+        settle = float(t[back[0]] - t_off) if len(back) else math.nan
         peaks = {f: float(frac[during, i].max()) for i, f in enumerate(names)}
         first = {}
         n = phi.shape[1]
@@ -119,8 +129,13 @@ def tumble(t, position, axis, reversal: tuple[float, float], window: float = WIN
             if len(seen):
                 first[f] = t[seen[0]]
         sequence = tuple(sorted(first, key=first.get))
+    t_rec = t_off + settle
+    v2 = (mean_velocity(t, position, t_rec, t_rec + window)
+          if t_rec + window <= t[-1] + 1e-12 else np.full(3, math.nan))
     return TumbleSummary(angle_deg(v0, v1), angle_deg(a0, a1), float(np.linalg.norm(v0)),
                          float(np.linalg.norm(v1)), t_on, t_off, window, **extra,
+                         settle_time=settle, recovered_tumble_angle_deg=angle_deg(v0, v2),
+                         speed_recovered=float(np.linalg.norm(v2)),
                          peak_fractions=peaks, sequence=sequence)
 
 

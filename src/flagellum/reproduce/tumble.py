@@ -60,10 +60,16 @@ RUN_BEFORE, RUN_AFTER, WINDOW = 0.15, 1.0, 0.1
 DURATIONS = {"quick": (0.1, 0.2, 0.35), "full": (0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.7, 1.0)}
 PHASES = {"quick": (0.0,), "full": (0.0, 0.007)}
 #: thermal noise in the sweep's runs (kT of the package's fluid; run i has seed i + 1, so
-#: the sweep is reproducible). Off: the tumble angle compares the direction before the
-#: reversal with that of the last window, ≈ 1 s after the recovery, and with noise the
-#: cell's Brownian reorientation over that time is larger than the tumble (docs/polymorphism.md)
+#: the sweep is reproducible). Off: with noise the cell's Brownian reorientation between the
+#: windows is comparable to the tumble itself (docs/polymorphism.md); the summary's
+#: ``recovered_angle_*`` (the window right after the recovery) keeps that time short
 THERMAL = False
+#: runs per duration and phase with :data:`THERMAL` (seeds 1, 2, …: the noise makes every run
+#: different, so the thermal distribution needs several per setting)
+THERMAL_REPEATS = 3
+#: with :data:`THERMAL`, the run without reversal goes on this much longer [s]: its record then
+#: holds many pairs of windows for the mean Brownian turn (:func:`_control_angle`)
+THERMAL_CONTROL_EXTRA = 8.0
 #: records per second
 RATE = 500
 #: the measured mean tumble angle [deg] and its standard deviation: wild-type E. coli,
@@ -73,11 +79,14 @@ BERG_BROWN_ANGLE, BERG_BROWN_SD = 68.0, 36.0
 
 def run_one(spec: dict) -> dict:
     """One cell: forward for ``RUN_BEFORE + phase``, reversed for ``duration`` (0: never),
-    forward for ``RUN_AFTER``; with thermal noise of seed ``spec["seed"]`` unless it is None
+    forward for ``RUN_AFTER`` (+ ``spec["extra"]``), with the mobility
+    ``spec["hydrodynamics"]`` (a :class:`~flagellum.hydro.options.Hydrodynamics` as a dict;
+    None: RFT); with thermal noise of seed ``spec["seed"]`` unless it is None
     (the fixed-step implicit scheme then, as for every thermal run). Returns the
     :class:`~flagellum.analysis.tumble.TumbleSummary` fields and the time series of the
     figure (or ``error``)."""
     from ..analysis.tumble import tumble
+    from ..hydro.options import Hydrodynamics
     from ..motor import Boundary, Motor
     from ..params import Params, Polymorphism
     from ..rod.polymorph import fractions
@@ -86,7 +95,7 @@ def run_one(spec: dict) -> dict:
     d, phase = float(spec["duration"]), float(spec.get("phase", 0.0))
     t_on = RUN_BEFORE + phase
     t_off = t_on + d
-    t_end = t_off + RUN_AFTER
+    t_end = t_off + RUN_AFTER + float(spec.get("extra", 0.0))
     params = Params().replace(length=spec.get("length", LENGTH))
     pm = Polymorphism(**spec.get("landscape", LANDSCAPE))
     motor = Motor(spec.get("torque", TORQUE), reversals=(t_on, t_off) if d > 0 else None)
@@ -96,7 +105,8 @@ def run_one(spec: dict) -> dict:
     thermal = seed is not None
     solver = SolverOptions(frame="lab", method="implicit") if thermal else SolverOptions(frame="lab")
     sim = Simulator(params, motor, Boundary(anchor="free", **spec.get("body", BODY)),
-                    polymorphism=pm, thermal=thermal, seed=seed, solver=solver)
+                    polymorphism=pm, thermal=thermal, seed=seed, solver=solver,
+                    hydrodynamics=Hydrodynamics.from_dict(spec.get("hydrodynamics")))
     timer = Timer()
     out = {"duration": d, "phase": phase, "seed": math.nan if seed is None else float(seed)}
     try:
@@ -108,6 +118,9 @@ def run_one(spec: dict) -> dict:
     s = tumble(tr.t, tr.body_position, tr.body_axis, (t_on, t_off if d > 0 else t_on + 1e-9),
                window, tr.polymorph, pm.forms)
     out.update(s.to_dict())
+    # from the window before to the recovered one and to the last one [s]
+    out["lag"] = s.reversal_end + s.settle_time - s.reversal_start
+    out["end_lag"] = tr.t[-1] - window - s.reversal_start
     out.pop("peak_fractions")
     out.update({f"peak_{k}": v for k, v in (s.peak_fractions or {}).items()},
                wall_seconds=timer.seconds, t_end=t_end)
@@ -123,6 +136,7 @@ class TumbleData:
 
     runs: tuple
     control: dict
+    hydrodynamics: str = "rft"  #: the filament's mobility model
 
 
 def compute(quality: str, cache=None) -> TumbleData:
@@ -130,16 +144,23 @@ def compute(quality: str, cache=None) -> TumbleData:
     from ..errors import ParameterError
 
     hyd = getattr(cache, "hydrodynamics", None)
-    if hyd is not None and not hyd.is_local:
-        raise ParameterError("hydrodynamics", hyd.model, "'rft' for the tumble target (a cell "
-                             "body is not coupled to the nonlocal mobility)")
+    if hyd is not None and not hyd.is_local and THERMAL:
+        raise ParameterError("hydrodynamics", hyd.model, "'rft' for the thermal tumble "
+                             "(thermal noise with a cell body needs the local mobility)")
+    hyd = None if hyd is None or hyd.is_local else hyd.to_dict()
+    repeats = THERMAL_REPEATS if THERMAL else 1
     jobs = [{"duration": d, "phase": p, "cost": d + RUN_BEFORE + RUN_AFTER}
-            for d in DURATIONS[quality] for p in PHASES[quality]]
-    jobs.append({"duration": 0.0, "phase": 0.0, "cost": RUN_BEFORE + RUN_AFTER})
+            for d in DURATIONS[quality] for p in PHASES[quality] for _ in range(repeats)]
+    # the control runs as long as the longest reversed run, so that its record holds several
+    # pairs of windows as far apart as those of the reversed runs (:func:`_control_angle`)
+    extra = max(DURATIONS[quality]) + max(PHASES[quality]) + (THERMAL_CONTROL_EXTRA if THERMAL else 0.0)
+    jobs.append({"duration": 0.0, "phase": 0.0, "extra": extra,
+                 "cost": RUN_BEFORE + RUN_AFTER + extra})
     for i, job in enumerate(jobs):
         job["seed"] = i + 1 if THERMAL else None
+        job["hydrodynamics"] = hyd
     res = pmap(run_one, jobs)
-    return TumbleData(tuple(res[:-1]), res[-1])
+    return TumbleData(tuple(res[:-1]), res[-1], (hyd or {}).get("model", "rft"))
 
 
 def _ok(runs):
@@ -164,6 +185,7 @@ def analyse(data: TumbleData) -> dict:
     # a tumble angle is between two runs: a filament that has not returned to normal by the
     # end of the record has no run after the tumble (it pulls the cell), so it is left out
     dist = angle_distribution([r["tumble_angle_deg"] for r in rec])
+    near = angle_distribution([r.get("recovered_tumble_angle_deg", math.nan) for r in rec])
 
     def mean(key, runs=ok):
         v = np.array([r.get(key, math.nan) for r in runs], float)
@@ -178,11 +200,32 @@ def analyse(data: TumbleData) -> dict:
             "tumble_angle_max_deg": (float(max(r["tumble_angle_deg"] for r in rec))
                                      if rec else math.nan),
             "histogram_edges_deg": dist["edges"], "histogram_counts": dist["counts"],
-            "control_angle_deg": data.control.get("tumble_angle_deg", math.nan),
+            "control_angle_deg": _control_angle(data.control, mean("end_lag", rec)),
+            "recovered_angle_mean_deg": near["mean"], "recovered_angle_std_deg": near["sd"],
+            "recovered_angle_median_deg": near["median"], "recovered_angles": near["n"],
+            "settle_time": mean("settle_time", rec),
+            "control_recovered_angle_deg": _control_angle(data.control, mean("lag", rec)),
             "speed_before": mean("speed_before"), "speed_after": mean("speed_after", rec),
             "transform_time": mean("transform_time"), "recovery_time": mean("recovery_time"),
             "transformed_fraction_max": mean("transformed_fraction_max"),
             "curly1_reached": sum(1 for r in ok if r.get("peak_curly1", 0) > 0.5)}
+
+
+def _control_angle(control: dict, lag: float) -> float:
+    """How far the cell without reversal turns over ``lag`` [s] (wobble, and with noise its
+    Brownian rotation): the mean angle between the directions over a window and over the
+    window ``lag`` later, for start times one window apart along its record (one run gives
+    several such pairs; with noise their mean estimates the expected turn)."""
+    from ..analysis.tumble import angle_deg, mean_velocity
+
+    if "series" not in control or not math.isfinite(lag):
+        return math.nan
+    t, pos, w = control["series"]["t"], control["series"]["body_position"], control["window"]
+    starts = np.arange(t[0] + w, t[-1] - lag - w + 1e-9, w)
+    if len(starts) == 0:
+        return math.nan
+    return float(np.mean([angle_deg(mean_velocity(t, pos, s - w, s),
+                                    mean_velocity(t, pos, s + lag, s + lag + w)) for s in starts]))
 
 
 def plot(data: TumbleData, stats: dict, quality: str, out_dir: Path) -> list[Path]:
@@ -215,11 +258,15 @@ def plot(data: TumbleData, stats: dict, quality: str, out_dir: Path) -> list[Pat
         back = r in rec
         ax[1].plot(r["duration"], r["tumble_angle_deg"], "o", color="tab:blue", ms=5,
                    mfc="tab:blue" if back else "none")
+        ax[1].plot(r["duration"], r.get("recovered_tumble_angle_deg", math.nan), "x",
+                   color="tab:green", ms=5)
+    ax[1].plot([], [], "o", color="tab:blue", label="at the end of the record")
+    ax[1].plot([], [], "x", color="tab:green", label="right after the recovery")
     if len(rec) < len(ok):
         ax[1].plot([], [], "o", color="tab:blue", mfc="none", label="not back to normal at the end")
-    ctrl = data.control.get("tumble_angle_deg", math.nan)
+    ctrl = stats["control_angle_deg"]
     if math.isfinite(ctrl):
-        ax[1].plot(0.0, ctrl, "s", mfc="none", color="tab:blue", label="no reversal")
+        ax[1].plot(0.0, ctrl, "s", mfc="none", color="tab:blue", label="no reversal (same delay)")
     ax[1].axhspan(BERG_BROWN_ANGLE - BERG_BROWN_SD, BERG_BROWN_ANGLE + BERG_BROWN_SD,
                   color="tab:red", alpha=0.12)
     ax[1].axhline(BERG_BROWN_ANGLE, color="tab:red", lw=1.2,
@@ -243,10 +290,12 @@ def plot(data: TumbleData, stats: dict, quality: str, out_dir: Path) -> list[Pat
 COLUMNS = ("duration", "phase", "tumble_angle_deg", "axis_tumble_angle_deg", "speed_before",
            "speed_after", "reversal_start", "reversal_end", "transform_time", "recovery_time",
            "transformed_fraction_max", "normal_fraction_final", "peak_semicoiled", "peak_curly1",
-           "sequence", "wall_seconds", "seed")
+           "settle_time", "recovered_tumble_angle_deg", "speed_recovered", "sequence",
+           "wall_seconds", "seed")
 UNITS = {"duration": "s", "phase": "s", "tumble_angle_deg": "deg", "axis_tumble_angle_deg": "deg",
          "speed_before": "µm/s", "speed_after": "µm/s", "reversal_start": "s", "reversal_end": "s",
-         "transform_time": "s", "recovery_time": "s", "wall_seconds": "s"}
+         "transform_time": "s", "recovery_time": "s", "settle_time": "s",
+         "recovered_tumble_angle_deg": "deg", "speed_recovered": "µm/s", "wall_seconds": "s"}
 
 
 def write(out_dir: Path, data: TumbleData, quality: str) -> list[Path]:
@@ -274,7 +323,8 @@ def compare(data: TumbleData, stats: dict, quality: str) -> Comparison:
     cmp.add("mean tumble angle (E. coli, Berg & Brown, Nature 239, 500 (1972))", BERG_BROWN_ANGLE,
             stats["tumble_angle_mean_deg"], "deg",
             f"mean over the {stats['angles']} runs whose filament is back to normal at the end "
-            f"(of {stats['runs'] - stats['failed']}: durations × phases), swimming "
+            f"(of {stats['runs'] - stats['failed']}: durations × phases"
+            + (" × seeds" if THERMAL else "") + "), swimming "
             "directions over 0.1 s before and at the end")
     cmp.add("sd of the tumble angle (Berg & Brown 1972)", BERG_BROWN_SD, stats["tumble_angle_std_deg"],
             "deg", "over the same runs (spread from the noise, durations and phases)"
@@ -289,7 +339,18 @@ def compare(data: TumbleData, stats: dict, quality: str) -> Comparison:
     cmp.add("tumble angle without reversal (" + ("wobble and Brownian motion" if THERMAL
                                                  else "wobble only") + ")",
             None if THERMAL else 0.0, stats["control_angle_deg"], "deg",
-            "the same windows, motor never reversed")
+            "motor never reversed: mean angle between windows as far apart as the reversed "
+            "runs' (mean over start times along the record)")
+    cmp.add("mean tumble angle right after the recovery (Berg & Brown 1972)", BERG_BROWN_ANGLE,
+            stats["recovered_angle_mean_deg"], "deg",
+            f"sd {stats['recovered_angle_std_deg']:.1f}°, median "
+            f"{stats['recovered_angle_median_deg']:.1f}° over {stats['recovered_angles']} runs: "
+            "the window before against the 0.1 s from the moment the filament is wholly normal "
+            f"again (mean {stats['settle_time']:.2f} s after the motor's return)")
+    cmp.add("the same without reversal", None if THERMAL else 0.0,
+            stats["control_recovered_angle_deg"], "deg",
+            "motor never reversed: windows as far apart as before and right after the "
+            "recovery (mean over start times along the record)")
     cmp.add("swimming speed before (E. coli: 29 ± 6 µm/s, Darnton et al. 2007)", 29.0,
             stats["speed_before"], "µm/s", "net speed |V̄| over the window before the reversal")
     cmp.add("swimming speed after recovery", 29.0, stats["speed_after"], "µm/s",
@@ -303,7 +364,7 @@ def compare(data: TumbleData, stats: dict, quality: str) -> Comparison:
             "from the motor's return to forward; mean over the runs")
     cmp.note(f"Model: one filament of L = {LENGTH:g} µm (the paper's helix), an elastic hook "
              f"(k = {BODY['hook_stiffness']:g} pN·µm), a spheroidal body 2.5 × 0.88 µm, torque "
-             f"±{TORQUE:g} pN·µm, RFT, "
+             f"±{TORQUE:g} pN·µm, {data.hydrodynamics.upper()}, "
              + ("thermal noise (kT = 4.1e-3 pN·µm, a seed per run)" if THERMAL else "no thermal noise")
              + ". Landscape: barriers "
              + " / ".join(f"{b:g}" for b in LANDSCAPE["barrier"])

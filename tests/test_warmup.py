@@ -70,3 +70,19 @@ def test_warmup_fills_a_fresh_cache(tmp_path):
                    capture_output=True, timeout=900)
     assert cold() == ["bdf"]
     assert any(p.name.startswith("brownian.implicit_steps") for p in tmp_path.rglob("*.nbi"))
+
+
+def test_the_warm_up_runs_reach_the_history_carry(monkeypatch):
+    """The warm-up's runs are long enough for the co-rotating frame to adapt and the charts to
+    move, so the BDF's history carry through them (``Simulator._carry``, its own compiled
+    kernels) is compiled by the warm-up, not by a user's first run or the first timed
+    regime of ``flagellum bench`` (with 2 records per run, as before, it was never
+    reached: measured in docs/benchmarks.md, "Compile pause")."""
+    from flagellum import warmup
+    from flagellum.simulator import Simulator
+
+    calls = []
+    carry = Simulator._carry
+    monkeypatch.setattr(Simulator, "_carry", lambda self, *a: calls.append(1) or carry(self, *a))
+    assert warmup.warm(["bdf"]) == ["bdf"]
+    assert len(calls) > 0

@@ -195,11 +195,15 @@ def average_errors(run: dict, ref: dict) -> dict:
 def warm_up() -> None:
     """Compile the kernels of every solver and boundary (untimed), so that no timed run pays
     Numba's compile pause."""
+    from .warmup import WARM_TIME
+
     for name, (torque, _, boundary, thermal) in REGIMES.items():
         for solver in ((_solver("bdf2"),) if thermal else
                        (_solver("cvode"), _solver("bdf"), _solver("bdf2"))):
+            # 2 ms at 20 records: long enough for the frame to adapt and the charts to move,
+            # so the history carry through them is compiled too (2 records were not)
             Simulator(Params(), Motor(torque), boundary, thermal=thermal, seed=1,
-                      solver=solver).run(2e-4, save_every=1e-4, progress=False)
+                      solver=solver).run(WARM_TIME, save_every=WARM_TIME / 20, progress=False)
 
 
 def regimes(quick: bool = False, names=None, solver: SolverOptions | None = None,

@@ -192,7 +192,11 @@ def _krylov_solve(t, y, f0, r, c, scale, lu, kl, ku, ipiv, pivoted, work, V, H, 
     banded iteration matrix as right preconditioner (as CVODE's SPGMR with a banded
     preconditioner): J v by a difference of right-hand sides, (f(y + σ v) − f0)/σ with
     ‖σ v‖ = 1 (weighted RMS), f0 = f(y). Works in the scaled space r/scale; at most
-    ``V.shape[0] − 1`` iterations. Returns x in ``r``; False on a non-finite right-hand side."""
+    ``V.shape[0] − 1`` iterations. Returns x in ``r`` and the weighted RMS norm of the
+    residual of (I − c J) x = r it leaves (with right preconditioning the system's own;
+    −1.0 on a non-finite right-hand side): a truncated GMRES can return a small step that is
+    not the Newton step, so the Newton iteration must not read a small step as convergence
+    unless the residual is small too."""
     n = r.shape[0]
     m = V.shape[0] - 1
     rn = math.sqrt(n)
@@ -202,7 +206,7 @@ def _krylov_solve(t, y, f0, r, c, scale, lu, kl, ku, ipiv, pivoted, work, V, H, 
         beta += V[0, j] * V[0, j]
     beta = math.sqrt(beta)
     if beta == 0.0:
-        return True
+        return 0.0
     for j in range(n):
         V[0, j] /= beta
     g[:] = 0.0
@@ -220,7 +224,7 @@ def _krylov_solve(t, y, f0, r, c, scale, lu, kl, ku, ipiv, pivoted, work, V, H, 
         ist[I_KRYLOV_ITERS] += 1
         fv = np.empty(n)
         if not _fun(t, fw, fv, ka, drive, general):
-            return False
+            return -1.0
         u = V[i + 1]
         for j in range(n):
             u[j] = (yw[j] - c * (fv[j] - f0[j]) / sigma) / scale[j]
@@ -264,7 +268,7 @@ def _krylov_solve(t, y, f0, r, c, scale, lu, kl, ku, ipiv, pivoted, work, V, H, 
             s += V[i, j] * g[i]
         r[j] = s * scale[j]
     band_solve(lu, kl, ku, ipiv, r, pivoted, work)
-    return True
+    return abs(g[k]) / rn if k > 0 else beta / rn
 
 
 @njit(cache=True)
@@ -382,11 +386,14 @@ def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, back
                         break
                     for j in range(n):
                         dy[j] = c * f[j] - psi[j] - d[j]
+                    inexact = False
                     if mk > 0:
-                        if not _krylov_solve(t_new, ynew, f, dy, c, scale, lu, kl, ku, ipiv,
-                                             ist[I_PIVOTED] == 1, work, V, H, g, cs, sn, yw, fk,
-                                             tol, ka, drive, general, ist):
+                        res = _krylov_solve(t_new, ynew, f, dy, c, scale, lu, kl, ku, ipiv,
+                                            ist[I_PIVOTED] == 1, work, V, H, g, cs, sn, yw, fk,
+                                            tol, ka, drive, general, ist)
+                        if res < 0.0:
                             break
+                        inexact = res > tol
                     else:
                         band_solve(lu, kl, ku, ipiv, dy, ist[I_PIVOTED] == 1, work)
                     dn = _norm(dy, scale)
@@ -395,7 +402,7 @@ def bdf_advance(t_out, y_out, D, st, ist, ka, drive, kl, ku, jab, lu, ipiv, back
                     for j in range(n):
                         ynew[j] += dy[j]
                         d[j] += dy[j]
-                    if dn * min(1.0, crate) <= tol:
+                    if dn * min(1.0, crate) <= tol and not inexact:
                         converged = True
                         break
                     if k > 0 and dn > RDIV * old:

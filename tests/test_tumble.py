@@ -410,9 +410,7 @@ def test_reproduce_tumble_writes_its_files_and_table(tmp_path, monkeypatch):
         k = np.clip(np.floor((t - T.RUN_BEFORE) * 40), 0, 20) * ((t < T.RUN_BEFORE + d + 0.1) | (not back))
         phi = (np.arange(20)[None, :] < k[:, None]).astype(float)
         s = tumble(t, pos, axis, (T.RUN_BEFORE, T.RUN_BEFORE + d + 1e-9), 0.1, phi, T.LANDSCAPE["forms"])
-        out = {"duration": d, "phase": job["phase"], **s.to_dict(), "wall_seconds": 0.0,
-               "lag": s.reversal_end + s.settle_time - s.reversal_start,
-               "end_lag": t[-1] - 0.1 - s.reversal_start}
+        out = {"duration": d, "phase": job["phase"], **s.to_dict(), "wall_seconds": 0.0}
         out.pop("peak_fractions")
         out.update({f"peak_{f}": v for f, v in s.peak_fractions.items()})
         out["series"] = {"t": t, "torque": np.ones_like(t), "fractions": fractions(phi, 3),

@@ -76,8 +76,8 @@ def test_the_warm_up_runs_reach_the_history_carry(monkeypatch):
     """The warm-up's runs are long enough for the co-rotating frame to adapt and the charts to
     move, so the BDF's history carry through them (``Simulator._carry``, its own compiled
     kernels) is compiled by the warm-up, not by a user's first run or the first timed
-    regime of ``flagellum bench`` (with 2 records per run, as before, it was never
-    reached: measured in docs/benchmarks.md, "Compile pause")."""
+    regime of ``flagellum bench`` (a run of 2 records never reaches it: measured in
+    docs/benchmarks.md, "Compile pause")."""
     from flagellum import warmup
     from flagellum.simulator import Simulator
 

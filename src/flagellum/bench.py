@@ -201,7 +201,7 @@ def warm_up() -> None:
         for solver in ((_solver("bdf2"),) if thermal else
                        (_solver("cvode"), _solver("bdf"), _solver("bdf2"))):
             # 2 ms at 20 records: long enough for the frame to adapt and the charts to move,
-            # so the history carry through them is compiled too (2 records were not)
+            # so the history carry through them is compiled too (2 records reach neither)
             Simulator(Params(), Motor(torque), boundary, thermal=thermal, seed=1,
                       solver=solver).run(WARM_TIME, save_every=WARM_TIME / 20, progress=False)
 

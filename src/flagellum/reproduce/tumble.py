@@ -118,9 +118,6 @@ def run_one(spec: dict) -> dict:
     s = tumble(tr.t, tr.body_position, tr.body_axis, (t_on, t_off if d > 0 else t_on + 1e-9),
                window, tr.polymorph, pm.forms)
     out.update(s.to_dict())
-    # from the window before to the recovered one and to the last one [s]
-    out["lag"] = s.reversal_end + s.settle_time - s.reversal_start
-    out["end_lag"] = tr.t[-1] - window - s.reversal_start
     out.pop("peak_fractions")
     out.update({f"peak_{k}": v for k, v in (s.peak_fractions or {}).items()},
                wall_seconds=timer.seconds, t_end=t_end)
@@ -188,9 +185,7 @@ def analyse(data: TumbleData) -> dict:
     near = angle_distribution([r.get("recovered_tumble_angle_deg", math.nan) for r in rec])
 
     def mean(key, runs=ok):
-        v = np.array([r.get(key, math.nan) for r in runs], float)
-        v = v[np.isfinite(v)]
-        return float(v.mean()) if len(v) else math.nan
+        return _mean(r.get(key, math.nan) for r in runs)
 
     return {"runs": len(data.runs), "failed": len(data.runs) - len(ok),
             "not_recovered": len(ok) - len(rec), "angles": len(rec),
@@ -200,15 +195,32 @@ def analyse(data: TumbleData) -> dict:
             "tumble_angle_max_deg": (float(max(r["tumble_angle_deg"] for r in rec))
                                      if rec else math.nan),
             "histogram_edges_deg": dist["edges"], "histogram_counts": dist["counts"],
-            "control_angle_deg": _control_angle(data.control, mean("end_lag", rec)),
+            "control_angle_deg": _control_angle(data.control, _mean(map(_end_lag, rec))),
             "recovered_angle_mean_deg": near["mean"], "recovered_angle_std_deg": near["sd"],
             "recovered_angle_median_deg": near["median"], "recovered_angles": near["n"],
             "settle_time": mean("settle_time", rec),
-            "control_recovered_angle_deg": _control_angle(data.control, mean("lag", rec)),
+            "control_recovered_angle_deg": _control_angle(data.control, _mean(map(_lag, rec))),
             "speed_before": mean("speed_before"), "speed_after": mean("speed_after", rec),
             "transform_time": mean("transform_time"), "recovery_time": mean("recovery_time"),
             "transformed_fraction_max": mean("transformed_fraction_max"),
             "curly1_reached": sum(1 for r in ok if r.get("peak_curly1", 0) > 0.5)}
+
+
+def _lag(run: dict) -> float:
+    """From the start of the window before the reversal to that of the window right after the
+    recovery, less one window [s]: the delay between the two windows."""
+    return run["reversal_end"] + run["settle_time"] - run["reversal_start"]
+
+
+def _end_lag(run: dict) -> float:
+    """The same delay for the last window of the record [s]."""
+    return run["series"]["t"][-1] - run["window"] - run["reversal_start"]
+
+
+def _mean(values) -> float:
+    v = np.array(list(values), float)
+    v = v[np.isfinite(v)]
+    return float(v.mean()) if len(v) else math.nan
 
 
 def _control_angle(control: dict, lag: float) -> float:

@@ -308,6 +308,54 @@ def rigid_fit(x_ref, x, anchor, axial=None):
     return R, resid
 
 
+#: the arc length [µm] of ΔM's near field in the stiff solvers' banded Newton matrix
+#: (preconditioner), and its least width in beads (:func:`near_beads`)
+NEAR_ARC = 0.2
+NEAR_MIN_BEADS = 2
+
+
+def near_beads(h: float) -> int:
+    """Width in beads of ΔM's near field in the banded Newton matrix: the blocks between
+    beads within :data:`NEAR_ARC` of arc length, at least :data:`NEAR_MIN_BEADS` (2 up to
+    N = 100 on the paper's filament, 4 at N = 200, 8 at N = 400). A width fixed in beads
+    shrinks the near field in length as N grows, and at N = 400 (2 beads: 0.05 µm) GMRES no
+    longer converged in CVODE's Newton steps: the run took 2.8 times the steps and its thrust
+    had spikes 13 % off the unfrozen splitting's."""
+    return max(NEAR_MIN_BEADS, int(round(NEAR_ARC / h)))
+
+
+#: the largest turn [rad] of a bond allowed between two builds of ΔM, as a multiple of
+#: λ_min(M_eff) / λ_max(M_loc) (:func:`turn_limit`). The turn at which M_loc(y) + ΔM(x*)
+#: loses positive definiteness was measured at 5–6.6 times that ratio (a smooth bend of the
+#: paper's helix, N = 100–400: tests/test_sbt_fine.py), so this leaves a margin of 2.5–3.3.
+TURN_SAFETY = 2.0
+
+
+def turn_limit(dm: np.ndarray, x: np.ndarray, h: float, gammas) -> float:
+    """The largest bond turn [rad] between builds of ΔM that keeps the applied mobility
+    M_loc(y) + ΔM(x*) positive definite: :data:`TURN_SAFETY` · λ_min / λ_max, λ_min the
+    smallest eigenvalue of the symmetric part of M_eff = M_loc + ΔM over beads 1 … n (the
+    first 3 + 3n slots: a cell's V, the beads' for the others) and λ_max a bound on the
+    local mobility's largest (Gershgorin). The local part follows the current tangents while
+    ΔM is frozen, so a turn θ moves M_loc by about θ·λ_max; where SBT's zig-zag modes have a
+    mobility far below the local one (beads spaced by a few blob sizes: λ_min/λ_max is 0.14
+    at N = 50, 0.011 at N = 400 on the paper's 10-µm filament) a small turn is enough to
+    make the sum indefinite and a bond-scale mode grow until the next build."""
+    n1 = len(x)
+    loc = local_mobility(np.asarray(x, float)[:n1], h, gammas[0], gammas[1], L.FREE, 0.0)[3:, 3:]
+    m = loc.shape[0]
+    me = dm[3:3 + m, 3:3 + m] + loc
+    lam = float(np.linalg.eigvalsh(0.5 * (me + me.T))[0])
+    return TURN_SAFETY * max(lam, 0.0) / float(np.abs(loc).sum(axis=1).max())
+
+
+def bonds_within(x: np.ndarray, x_ref: np.ndarray, limit: float) -> bool:
+    """Whether no bond of the beads x has changed by more than ``limit`` (a length) against
+    x_ref: |(x_{i+1} − x_i) − (x_ref,i+1 − x_ref,i)| ≤ limit."""
+    d = np.diff(x, axis=0) - np.diff(x_ref, axis=0)
+    return float(np.max(np.abs(d))) <= limit
+
+
 def rotate_correction(dm, R):
     """ΔM of the beads turned by R (about bead 0): each 3×3 block D_ij becomes R D_ij Rᵀ
     (the mobility of a rotated configuration, by the isotropy of Stokes flow)."""
@@ -368,4 +416,4 @@ def moving_components(anchor, n1: int) -> np.ndarray:
 __all__ = ["CellBody", "Hydrodynamics", "MODELS", "REFRESH", "body_flow", "cell_correction",
            "cell_local_mobility", "cell_mobility", "correction", "effective_mobility",
            "grand_mobility", "local_mobility", "moving_components", "rigid_fit",
-           "rotate_correction", "sphere_centre", "sphere_coupling"]
+           "rotate_correction", "sphere_centre", "sphere_coupling", "turn_limit", "bonds_within", "near_beads"]

@@ -282,6 +282,8 @@ I_N, I_HOOK, I_ANCHOR, I_GEN, I_HYDRO, I_DRIVE, I_NLAW, I_NLAW_CW = range(8)
 #: on it centred at z = prm[off + X_TRAP_Z], then (iprm[I_SEGMENTS] = 1) the n curvatures
 #: and the n torsions of the joints from prm[off + X_SEG] on
 I_EXTRA, I_SEGMENTS = 8, 9
+#: iprm[I_NEAR]: the near field's width in beads (HYDRO_BANDED below)
+I_NEAR = 10
 X_FORCE, X_TRAP_K, X_TRAP_Z, X_SEG = range(4)
 #: iprm[I_DRIVE]: what prm[P_TORQUE] is (:class:`flagellum.motor.Motor`). DRIVE_TORQUE: the
 #: motor torque; DRIVE_SPEED: the clamped motor speed relative to the body; DRIVE_LAW: the
@@ -293,10 +295,10 @@ DRIVE_TORQUE, DRIVE_SPEED, DRIVE_LAW = 0, 1, 2
 #: iprm[I_HYDRO]: the bead mobility of :func:`rhs`. HYDRO_LOCAL: the local drag of
 #: :mod:`flagellum.hydro.local` alone (RFT); HYDRO_FROZEN: plus the frozen dense correction
 #: ΔM (the workspace's last array, U += ΔM F; :mod:`flagellum.hydro.dynamics`); HYDRO_BANDED:
-#: plus its 3×3 blocks between beads at most NEAR_BEADS apart (the banded operator the
-#: Jacobian is taken of: the near field that sets the stiff bead-scale modes)
+#: plus its 3×3 blocks between beads at most iprm[I_NEAR] apart (the banded operator the
+#: Jacobian is taken of: the near field that sets the stiff bead-scale modes;
+#: :func:`flagellum.hydro.dynamics.near_beads`)
 HYDRO_LOCAL, HYDRO_FROZEN, HYDRO_BANDED = 0, 1, 2
-NEAR_BEADS = 2
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
@@ -738,7 +740,7 @@ def _rhs_kernel(GENERAL):
         cell = anchor == ANCHOR_CELL
         hydro = iprm[I_HYDRO]
         # nonlocal mobility: U = M_local(y) F + ΔM F, ΔM frozen (the blocks within `width` beads)
-        width = -1 if hydro == HYDRO_LOCAL else (NEAR_BEADS if hydro == HYDRO_BANDED else n)
+        width = -1 if hydro == HYDRO_LOCAL else (iprm[I_NEAR] if hydro == HYDRO_BANDED else n)
         cm = V[0]  # (unused placeholder of the same type)
         if GENERAL and cell:  # bead 0 and the hook frame move with the cell body (and it applies ΔM)
             cm = cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW)

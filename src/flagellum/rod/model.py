@@ -15,7 +15,8 @@ import numpy as np
 from ..errors import SimulationError
 from ..helix import DiscreteHelix, discrete_helix
 from ..hydro import body as body_model
-from ..hydro.dynamics import CellBody, cell_correction, correction, rigid_fit, rotate_correction
+from ..hydro.dynamics import (CellBody, bonds_within, cell_correction, correction, near_beads,
+                              rigid_fit, rotate_correction, turn_limit)
 from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
 from ..params import EndLoad, Params
@@ -24,15 +25,19 @@ from . import kernels as K
 #: (lower, upper) bandwidth of the right-hand side's Jacobian in the bead-by-bead state
 #: ordering; tight for every boundary and hook (tests/test_rod.py)
 JACOBIAN_BAND = (15, 11)
-#: the same with a nonlocal mobility: its near field (ΔM between neighbouring beads,
-#: :data:`~flagellum.rod.kernels.NEAR_BEADS`) couples one more bead each way
-NONLOCAL_JACOBIAN_BAND = (23, 19)
 #: with a cell body: its orientation (the state's last three values) couples to the first
 #: beads and the hook, outside any band; the stiff solvers keep this band as the
 #: preconditioner of a Krylov solve (CVODE does so for any band but the rod's)
 CELL_JACOBIAN_BAND = (16, 12)
-#: a cell body with a nonlocal mobility: the cell's band widened by the near field
-NONLOCAL_CELL_JACOBIAN_BAND = (24, 20)
+#: the state entries per bead: a nonlocal mobility's near field (ΔM between beads at most
+#: :func:`~flagellum.hydro.dynamics.near_beads` apart) widens either band by this per bead
+STATE_PER_BEAD = 4
+
+
+def nonlocal_band(band: tuple[int, int], near: int) -> tuple[int, int]:
+    """The Jacobian band ``band`` widened by a near field of ``near`` beads each way."""
+    return band[0] + STATE_PER_BEAD * near, band[1] + STATE_PER_BEAD * near
+
 
 _HOOK = {"free": K.HOOK_FREE, "elastic": K.HOOK_ELASTIC, "clamped": K.HOOK_CLAMPED}
 _ANCHOR = {"fixed": K.ANCHOR_FIXED, "sphere": K.ANCHOR_SPHERE, "free": K.ANCHOR_FREE}
@@ -104,6 +109,7 @@ class RodModel:
         #: scratch frames of :meth:`change_coordinates` (T, E1, E2, LEN, S, A1)
         self._scratch = tuple(np.zeros((n1, 3)) if k != 3 else np.zeros(n1) for k in range(6))
         self._frozen = None  #: bead positions the nonlocal correction ΔM was built at
+        self._turn_limit = None  #: largest bond turn between builds of ΔM [rad] (turn_limit)
         #: build ΔM from the symmetric part of the nonlocal mobility (a thermal stepper sets it)
         self.symmetric_mobility = False
         self._zf = np.zeros((n1, 3))
@@ -123,8 +129,8 @@ class RodModel:
         anchor = K.ANCHOR_CELL if self.cell else _ANCHOR[self.boundary.anchor]
         self.iprm = np.array([self.n, _HOOK[self.boundary.hook], anchor, 0,
                               K.HYDRO_FROZEN if self._nonlocal else K.HYDRO_LOCAL,
-                              _DRIVE[self.motor.drive], len(ccw) // 2, len(cw) // 2, 0, 0],
-                             dtype=np.int64)
+                              _DRIVE[self.motor.drive], len(ccw) // 2, len(cw) // 2, 0, 0,
+                              near_beads(self.h) if self._nonlocal else 0], dtype=np.int64)
         self.end_load = end_load if end_load is not None and end_load.active else None
         self.segments = bool(segments)
         self.trap_origin = 0.0  #: z [µm] of the trap's centre at t = 0 (the simulator's start)
@@ -295,9 +301,8 @@ class RodModel:
     @property
     def jacobian_band(self) -> tuple[int, int]:
         """(lower, upper) bandwidth of the Jacobian the stiff solvers use for this model."""
-        if self.cell:
-            return NONLOCAL_CELL_JACOBIAN_BAND if self._nonlocal else CELL_JACOBIAN_BAND
-        return NONLOCAL_JACOBIAN_BAND if self._nonlocal else JACOBIAN_BAND
+        band = CELL_JACOBIAN_BAND if self.cell else JACOBIAN_BAND
+        return nonlocal_band(band, int(self.iprm[K.I_NEAR])) if self._nonlocal else band
 
     def jacobian_colors(self, kl: int, ku: int):
         """(color, lo, hi) for :func:`~flagellum.rod.kernels.colored_jacobian`: the rows each
@@ -343,33 +348,52 @@ class RodModel:
 
     def refresh_mobility(self, y: np.ndarray, force: bool = False) -> bool:
         """Rebuild the frozen nonlocal correction ΔM at the beads of y if one has moved by more
-        than ``hydrodynamics.refresh`` since the last build (always with ``force``); returns
-        whether it did. A no-op for the local model."""
+        than ``hydrodynamics.refresh`` since the last build, or a bond has turned by more than
+        :func:`~flagellum.hydro.dynamics.turn_limit` (always with ``force``); returns whether
+        it did. A no-op for the local model."""
         if not self._nonlocal:
             return False
         x = self._mobility_points(y)
+        n1 = self.n + 1
         if not force and self._frozen is not None:
-            if np.max(np.abs(x - self._frozen)) <= self.hydrodynamics.refresh:
+            bond = self.turn_limit * self.h
+            if (np.max(np.abs(x - self._frozen)) <= self.hydrodynamics.refresh
+                    and bonds_within(x[:n1], self._frozen[:n1], bond)):
                 return False
             # a rigid rotation of the frozen beads (about bead 0): turn ΔM instead of rebuilding
             # (a free swimmer's sphere sits at x_0 + a e_z: about e_z only)
             b = self.boundary
             rot, resid = rigid_fit(self._frozen, x, _ANCHOR[b.anchor],
                                    axial=(b.anchor != "fixed" and bool(b.sphere_radius)) or None)
-            if resid <= self.hydrodynamics.refresh:
+            turned = x[0] + (self._frozen - self._frozen[0]) @ rot.T
+            if resid <= self.hydrodynamics.refresh and bonds_within(x[:n1], turned[:n1], bond):
                 self._ws[-1][:] = rotate_correction(self._ws[-1], rot)
-                self._frozen = x[0] + (self._frozen - self._frozen[0]) @ rot.T
+                self._frozen = turned
                 return True
-        if self.cell:
-            n1 = self.n + 1
-            fluid = self.params.fluid
-            self._ws[-1][:] = cell_correction(x[:n1], self.h, self.gammas, fluid.filament_radius,
-                                              fluid.viscosity, self._cell_body(x),
-                                              symmetric=self.symmetric_mobility)
-        else:
-            self._ws[-1][:] = correction(x, *self.mobility_arguments(), symmetric=self.symmetric_mobility)
+        self._ws[-1][:] = self._correction(x)
         self._frozen = x.copy()
         return True
+
+    def _correction(self, x: np.ndarray) -> np.ndarray:
+        """ΔM at the mobility points x (:meth:`_mobility_points`)."""
+        if self.cell:
+            fluid = self.params.fluid
+            return cell_correction(x[:self.n + 1], self.h, self.gammas, fluid.filament_radius,
+                                   fluid.viscosity, self._cell_body(x),
+                                   symmetric=self.symmetric_mobility)
+        return correction(x, *self.mobility_arguments(), symmetric=self.symmetric_mobility)
+
+    @property
+    def turn_limit(self) -> float:
+        """The largest bond turn [rad] between two builds of ΔM
+        (:func:`~flagellum.hydro.dynamics.turn_limit`), from the initial state: a function of
+        the parameters alone, so a resumed run rebuilds where the original did."""
+        if self._turn_limit is None:
+            charts = self.charts()  # (initial_state sets the charts)
+            x = self._mobility_points(self.initial_state())
+            self.set_charts(*charts)
+            self._turn_limit = turn_limit(self._correction(x), x[:self.n + 1], self.h, self.gammas)
+        return self._turn_limit
 
     def _mobility_points(self, y: np.ndarray) -> np.ndarray:
         """The points the nonlocal mobility depends on: the beads, and for a cell body its

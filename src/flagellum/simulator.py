@@ -487,7 +487,8 @@ class Simulator:
             switch = next((s for s in switches if stepper.t + 1e-9 < s <= t_next + 1e-9), None)
             if switch is not None and switch < t_next - 1e-9:
                 t_next = switch
-            self.model.refresh_mobility(y)  # a nonlocal mobility: frozen over the chunk
+            if not getattr(stepper, "tracks_mobility", False):
+                self.model.refresh_mobility(y)  # a nonlocal mobility: frozen over the chunk
             if self.end_load is not None:  # integrators that call the kernels themselves
                 self.model.prm[self.model.iprm[K.I_EXTRA] + K.X_TRAP_Z] = \
                     self.model.trap_centre(0.5 * (stepper.t + t_next))

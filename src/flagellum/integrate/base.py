@@ -59,6 +59,11 @@ class Stepper(Protocol):
         built there with the current :attr:`rng_state` (resume from a checkpoint relies
         on it).
 
+    Optional: ``tracks_mobility`` (bool)
+        True where ``advance`` itself checks and rebuilds a frozen nonlocal ΔM
+        (:class:`~flagellum.integrate.frozen.FrozenMobility`, with its ramp between builds);
+        the simulator then leaves ΔM alone between restarts. Without it, the simulator
+        checks ΔM (:meth:`~flagellum.rod.model.RodModel.refresh_mobility`) before each chunk.
     Optional: ``carry(t, y, transform) -> bool``
         Continue at (t, y) after a smooth change of the state's coordinates (a re-centred
         chart, a change of the frame's rate) with the history mapped by ``transform(times,

@@ -586,6 +586,11 @@ class BdfStepper:
         return int(self._ist[I_STEPS])
 
     @property
+    def tracks_mobility(self) -> bool:
+        """Whether :meth:`advance` checks and ramps a frozen nonlocal ΔM itself."""
+        return self._frozen.active
+
+    @property
     def stats(self) -> dict:
         """Counters since construction: steps, right-hand sides, Jacobians, factorizations,
         failures, and the Jacobians by cause of renewal (at a start, after the kept one's

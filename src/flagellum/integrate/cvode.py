@@ -179,6 +179,11 @@ class CvodeStepper:
         self._frozen = FrozenMobility(model, smooth=self.smooth_refresh)
         self.reset(t0, y0)
 
+    @property
+    def tracks_mobility(self) -> bool:
+        """Whether :meth:`advance` checks and ramps a frozen nonlocal ΔM itself."""
+        return self._frozen.active
+
     @classmethod
     def from_options(cls, model, t: float, y: np.ndarray, options, *, kT: float = 0.0,
                      seed: int = 0, rng_state=None) -> "CvodeStepper":

@@ -59,6 +59,7 @@ class FrozenMobility:
     def reset(self, t0: float) -> None:
         """Start over at t0 (a restarted stepper): no ramp, sub-interval from the bead speeds."""
         self.arrays[2][:] = (0.0, 1.0, -1.0, 0.0)
+        self._target = None  #: the ΔM built (or turned) last: where the ramp goes
         self.last_build = float(t0)
         self.sub = 0.0
 
@@ -79,8 +80,16 @@ class FrozenMobility:
             rp[R_S] = -1.0
             ramp_mobility(t0, dm, frm, delta, rp)
         current = dm.copy() if self.smooth else None
+        if rp[R_ACTIVE]:
+            # the model compares with, and turns, the ΔM it built last (its frozen beads are
+            # that build's), not the ramp's blend: a blend turned as the new target would
+            # drop the rest of the ramp and keep part of an older build
+            dm[:] = self._target
         if not m.refresh_mobility(y):
+            if rp[R_ACTIVE]:
+                dm[:] = current
             return
+        self._target = dm.copy()
         if self.smooth and t > self.last_build:
             frm[:] = current
             np.subtract(dm, current, out=delta)

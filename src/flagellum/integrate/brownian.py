@@ -451,9 +451,19 @@ class ImplicitStepper:
         if self._nonlocal_noise:
             model.symmetric_mobility = True  # fluctuation–dissipation: noise of M_s, drift M_s F
             model.refresh_mobility(np.asarray(y0, float), force=True)
+        # deterministic, frozen nonlocal mobility: ΔM checked (rebuilt, turned or kept) before
+        # every step, not only between the simulator's chunks
+        self._checks = (self.kT == 0 and model.iprm[K.I_HYDRO] != K.HYDRO_LOCAL
+                        and model.hydrodynamics.refresh > 0)
         self._no_increments = np.zeros((0, 0))
         self.n_steps = self.n_iter = self.n_jac = 0
         self.reset(t0, y0)
+
+    @property
+    def tracks_mobility(self) -> bool:
+        """Whether :meth:`advance` checks a frozen nonlocal ΔM itself (deterministic runs:
+        before every step; thermal ones rebuild it at every step)."""
+        return self._checks or self._nonlocal_noise
 
     @classmethod
     def from_options(cls, model, t: float, y: np.ndarray, options, *, kT: float = 0.0,
@@ -505,6 +515,13 @@ class ImplicitStepper:
             for j in range(k):
                 inc = self._nonlocal_increment(self.y, normals[j], dt)
                 if self._kernel_steps(t0 + j * dt, 1, dt, times[j:j + 1], normals[j:j + 1], inc[None]) != 1:
+                    return j
+            return k
+        if self._checks:  # one step at a time: ΔM checked at y_n (a rebuild jumps: no ramp)
+            for j in range(k):
+                self.model.refresh_mobility(self.y)
+                if self._kernel_steps(t0 + j * dt, 1, dt, times[j:j + 1], normals[j:j + 1],
+                                      self._no_increments) != 1:
                     return j
             return k
         return self._kernel_steps(t0, k, dt, times, normals, self._no_increments)

@@ -2,7 +2,8 @@
 "Integration in the time stepper"): when it is checked, and how a rebuilt one takes over.
 
 Both adaptive steppers (CVODE, the Numba BDF) advance to sub-targets that the fastest bead
-takes about half of ``refresh`` to reach, check ΔM there (:meth:`RodModel.refresh_mobility
+takes about half of ``refresh`` to reach (and the fastest-changing bond half of its turn
+limit), check ΔM there (:meth:`RodModel.refresh_mobility
 <flagellum.rod.model.RodModel.refresh_mobility>`: rebuilt, turned or kept) and, after a
 rebuild at time t, let the ΔM that the kernel applies go over linearly in time from its value
 at t to the new one, over the time the last interval between builds took, so that the
@@ -37,6 +38,16 @@ def ramp_mobility(t, dm, frm, delta, rp):
         for j in range(m):
             dm[i, j] = frm[i, j] + s * delta[i, j]
     rp[R_S] = s
+
+
+#: the first sub-interval after a (re)start where the bond limit can bind, as a fraction of
+#: the one the current speeds give
+FIRST_SUB_FRACTION = 1 / 32
+
+
+def _bond_change(dx: np.ndarray) -> float:
+    """The largest change of a bond vector for bead displacements (or velocities) dx."""
+    return float(np.max(np.abs(np.diff(dx, axis=0))))
 
 
 class FrozenMobility:
@@ -103,11 +114,17 @@ class FrozenMobility:
         (ok, y at tn, result, the stepper's own time); ΔM is checked after each. Returns the
         last ``result`` (also the failed one)."""
         m = self.model
-        refresh = m.hydrodynamics.refresh
+        refresh, bond = m.hydrodynamics.refresh, m.turn_limit * m.h
         tc, xc = t_from, m_positions(y_from)
         if self.sub <= 0:  # first call: from the bead speeds now
-            v = float(np.max(np.abs(m_positions(m.rhs(tc, y_from)))))
-            self.sub = 0.5 * refresh / v if v > 0 else t - tc
+            u = m_positions(m.rhs(tc, y_from))
+            rate = max(float(np.max(np.abs(u))) / refresh, _bond_change(u) / bond)
+            self.sub = 0.5 / rate if rate > 0 else t - tc
+            if bond < 2 * refresh:
+                # the bond limit can bind (fine filaments): passing it is unstable, not just
+                # less accurate, and from rest the bonds speed up 40-fold within microseconds
+                # (N = 400), so begin with a small part and let the sub-intervals grow
+                self.sub *= FIRST_SUB_FRACTION
         while True:
             tn = min(t, tc + self.sub)
             if t - tn < 0.25 * self.sub:
@@ -116,9 +133,11 @@ class FrozenMobility:
             if not ok:
                 return res
             xn = m_positions(y)
-            moved = float(np.max(np.abs(xn - xc)))
-            if moved > 0:
-                self.sub = min(2.0, max(0.25, 0.5 * refresh / moved)) * (tn - tc)
+            # the fraction of either limit used: the beads' refresh distance and the bonds'
+            # turn limit (RodModel.refresh_mobility)
+            used = max(float(np.max(np.abs(xn - xc))) / refresh, _bond_change(xn - xc) / bond)
+            if used > 0:
+                self.sub = min(2.0, max(0.25, 0.5 / used)) * (tn - tc)
             self.check(tn, y, t_own)
             tc, xc = tn, xn
             if tn >= t:

@@ -326,8 +326,9 @@ def near_beads(h: float) -> int:
 
 #: the largest turn [rad] of a bond allowed between two builds of ΔM, as a multiple of
 #: λ_min(M_eff) / λ_max(M_loc) (:func:`turn_limit`). The turn at which M_loc(y) + ΔM(x*)
-#: loses positive definiteness was measured at 5–6.6 times that ratio (a smooth bend of the
-#: paper's helix, N = 100–400: tests/test_sbt_fine.py), so this leaves a margin of 2.5–3.3.
+#: loses positive definiteness was measured at 4–8 times that ratio (smooth bends of the
+#: paper's helix and of thicker, thinner and shorter ones, h/ε = 1.5–12:
+#: tests/test_sbt_fine.py, docs/hydrodynamics.md), so this leaves a margin of 2–4.
 TURN_SAFETY = 2.0
 
 

@@ -388,16 +388,6 @@ def test_from_flags_body_radius_means_a_free_cell():
     assert not Boundary(anchor="free", sphere_radius=0.5).is_cell
 
 
-@pytest.mark.parametrize("kw, name", [
-    (dict(thermal=True, seed=0), "thermal"), (dict(solver=SolverOptions(method="implicit")), "method")])
-def test_cell_refuses_what_it_does_not_model(kw, name):
-    """With SBT the cell has neither the fixed-step solver nor thermal noise (with RFT both
-    run: tests below)."""
-    p = Params.from_flat({"kT": 4.1e-3}) if kw.get("thermal") else Params()
-    with pytest.raises(ParameterError, match=name):
-        Simulator(p, Motor(1.0), BOUNDARIES[0], hydrodynamics=Hydrodynamics("sbt"), **kw)
-
-
 def test_cli_cell_run_and_errors(cli, tmp_path):
     out = tmp_path / "cell.h5"
     code, stdout, err = cli("simulate", "--body-radius", "0.5", "--body-aspect", "2", "--time",
@@ -417,8 +407,8 @@ def test_cli_cell_run_and_errors(cli, tmp_path):
     assert ds["relative_motor_speed"].attrs["units"] == "rad/s"
     for args, name in ((("--anchor", "fixed", "--body-radius", "1"), "body_radius"),
                        (("--body-aspect", "2"), "body_aspect"),
-                       (("--body-radius", "1", "--hydrodynamics", "sbt", "--method", "implicit"), "method"),
-                       (("--body-radius", "1", "--hydrodynamics", "sbt", "--thermal"), "thermal")):
+                       (("--body-radius", "1", "--hydrodynamics", "sbt", "--thermal", "--method", "cvode"),
+                        "method")):
         code, stdout, err = cli("simulate", *args, "--time", "0.001")
         assert code == 2 and name in err and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
 

@@ -84,11 +84,12 @@ def test_a_cell_draws_six_normals_more_per_step():
     assert Br.ImplicitStepper(a, 0.0, a.initial_state(), 5e-5, kT=KT)._n_normals == 4 * (a.n + 1) + 3 + a.state_size
 
 
-def _diffusion(aspect, steps, lag=10, dt=5e-5, seed=3):
+def _diffusion(aspect, steps, lag=10, dt=5e-5, seed=3, hydrodynamics=None):
     a = 2.0 / aspect ** (1 / 3)  # about the same volume
     sim = Simulator(Params(SHORT, Fluid(kT=KT)), Motor(0.0),
                     Boundary(anchor="free", body_radius=a, body_aspect=aspect), thermal=True,
-                    seed=seed, solver=SolverOptions(method="implicit", dt=dt))
+                    seed=seed, solver=SolverOptions(method="implicit", dt=dt),
+                    **({} if hydrodynamics is None else {"hydrodynamics": hydrodynamics}))
     tr = sim.run(steps * dt, save_every=lag * dt, progress=False)
     Q = np.array([Bd.rotvec_matrix(f) for f in tr.body_orientation])
     dX = np.diff(tr.body_position, axis=0)

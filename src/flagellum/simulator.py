@@ -141,21 +141,6 @@ class State:
     phi: np.ndarray | None = None
 
 
-def check_cell(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynamics,
-               thermal: bool, boundary: Boundary | None) -> None:
-    """What a cell body (``boundary.body_radius``) does not combine with yet: the fixed-step
-    solver, and so thermal noise, with a nonlocal mobility (``--hydrodynamics sbt``: the
-    coupled mobility's noise and the chord iteration over its band are not implemented)."""
-    if boundary is None or not boundary.is_cell or hydrodynamics.is_local:
-        return
-    if thermal:
-        raise ParameterError("thermal", True, "off with a cell body (--body-radius) and "
-                             "--hydrodynamics sbt")
-    if solver.method not in (None, "cvode"):
-        raise ParameterError("method", solver.method, "'cvode' with a cell body (--body-radius) "
-                             "and --hydrodynamics sbt")
-
-
 def check_setup(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynamics,
                 thermal: bool, seed, boundary: Boundary | None = None) -> None:
     """The checks of a :class:`Simulator`'s arguments that the dataclasses cannot make alone
@@ -164,7 +149,6 @@ def check_setup(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynam
         raise ParameterError("kT", params.fluid.kT, "> 0 for a thermal run")
     if thermal and solver.method not in (None, "implicit"):
         raise ParameterError("method", solver.method, "'implicit' for a thermal run")
-    check_cell(params, solver, hydrodynamics, thermal, boundary)
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
                              or not 0 <= seed < 2**63):  # an int64 attribute of the files
         raise ParameterError("seed", seed, "an integer in [0, 2**63 - 1]")

@@ -21,7 +21,8 @@ class Hydrodynamics:
         :mod:`flagellum.hydro.sbt`, with the load sphere or body coupled to the filament).
     refresh : [µm] the nonlocal correction ΔM is rebuilt (at the simulator's chunk
         boundaries) once a bead has moved this far from the positions it was built at;
-        0: at every right-hand-side evaluation (the unfrozen reference, slow).
+        0: at every right-hand-side evaluation (the unfrozen reference, slow; the
+        fixed-step scheme: before every step).
     """
 
     model: str = "rft"

@@ -124,7 +124,9 @@ def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, y
                       zf, zm, zh, xi_f, xi_m, xi_h, xi_bead, general):
     """b = Δt M(y) ξ + Δt kT ∂·M(y) (random finite difference) from the unit normals g.
     ``xi_bead`` (n+1, 3), if not empty, replaces the bead part of ξ (the thermal forces of a
-    nonlocal mobility, :meth:`ImplicitStepper._nonlocal_increment`)."""
+    nonlocal mobility, :meth:`ImplicitStepper._nonlocal_increment`); (n+3, 3) with a cell
+    body: its last two rows replace the body's force and torque, and a clamped hook's noise
+    keeps only its part along the hook's tangent."""
     n1 = iprm[K.I_N] + 1
     ny = y.shape[0]
     cell = iprm[K.I_ANCHOR] == K.ANCHOR_CELL
@@ -137,7 +139,16 @@ def thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, y
     o += xi_h.shape[0]
     thermal_forces(y, prm, iprm, ref_u, ref_e, kT, dt, gf, gm, gh, ws, xi_f, xi_m, xi_h)
     if xi_bead.shape[0] > 0:
-        xi_f[:, :] = xi_bead
+        xi_f[:, :] = xi_bead[:n1]
+    if xi_bead.shape[0] > n1:  # a cell body's force and torque of the nonlocal mobility
+        for c in range(3):
+            xi_h[3 + c] = xi_bead[n1, c]
+            xi_h[6 + c] = xi_bead[n1 + 1, c]
+        if iprm[K.I_HOOK] == K.HOOK_CLAMPED:  # its friction across the axis is in M_s
+            t = ws[0]
+            ht = xi_h[0] * t[0, 0] + xi_h[1] * t[0, 1] + xi_h[2] * t[0, 2]
+            for c in range(3):
+                xi_h[c] = ht * t[0, c]
     if cell:  # the invariant measure of the orientation: a torque kT ∇ ln det J(φ) (= its
         # generalized force, J⁻ᵀ φ = φ); with it the stationary density is exp(−E/kT) det J(φ)
         hx, hy, hz = Bd.haar_gradient(y[ny - 3], y[ny - 2], y[ny - 1])
@@ -446,15 +457,13 @@ class ImplicitStepper:
         self._n_normals = (4 * (model.n + 1) + 3 + 6 * model.cell + ny) if self.kT > 0 else 0
         # thermal noise of a nonlocal mobility: increments built outside the kernel each step
         self._nonlocal_noise = self.kT > 0 and model.iprm[K.I_HYDRO] != K.HYDRO_LOCAL
-        if self._nonlocal_noise and model.cell:  # (simulator.check_cell refuses it up front)
-            raise ValueError("thermal noise of a cell body with a nonlocal mobility is not implemented")
         if self._nonlocal_noise:
             model.symmetric_mobility = True  # fluctuation–dissipation: noise of M_s, drift M_s F
             model.refresh_mobility(np.asarray(y0, float), force=True)
         # deterministic, frozen nonlocal mobility: ΔM checked (rebuilt, turned or kept) before
         # every step, not only between the simulator's chunks
-        self._checks = (self.kT == 0 and model.iprm[K.I_HYDRO] != K.HYDRO_LOCAL
-                        and model.hydrodynamics.refresh > 0)
+        # (refresh 0: rebuilt before every step, the fixed-step scheme's unfrozen reference)
+        self._checks = self.kT == 0 and model.iprm[K.I_HYDRO] != K.HYDRO_LOCAL
         self._no_increments = np.zeros((0, 0))
         self.n_steps = self.n_iter = self.n_jac = 0
         self.reset(t0, y0)
@@ -544,11 +553,17 @@ class ImplicitStepper:
         mobility (docs/hydrodynamics.md, "Thermal noise").
 
         M is rebuilt at y (its symmetric part M_s: :attr:`RodModel.symmetric_mobility`); the
-        bead forces are ξ = √(2kT/Δt) L⁻ᵀ g with M_s = L Lᵀ (Cholesky, over the components
-        the anchor leaves free), so that M_s ξ = √(2kT/Δt) L g has the covariance 2kT M_s/Δt;
-        spins and hook keep their local noise. The Itô drift is the random finite difference
+        generalized forces are ξ = √(2kT/Δt) L⁻ᵀ g with M_s = L Lᵀ (Cholesky, over the
+        components the anchor leaves free), so that M_s ξ = √(2kT/Δt) L g has the covariance
+        2kT M_s/Δt; spins and the hook frame keep their local noise. With a cell body M_s is
+        over its slots (V, beads 1 … n, Ω; :meth:`RodModel.mobility_matrix`): ξ's first and
+        last parts are the body's force and torque about its centre (from the normals of bead
+        0 and of the body's torque), bead 0 has none of its own, and a clamped hook's noise
+        keeps only its part about the motor axis (the part across it, the hook's friction
+        turning with the body, is in M_s). The Itô drift is the random finite difference
         of :func:`thermal_increment` for the local part and the charts (ΔM held at y) plus
-        kT [ΔM(x + δW) − ΔM(x)] W/δ for the nonlocal correction (Delong et al. 2014).
+        kT [ΔM(y + δW) − ΔM(y)] W/δ for the nonlocal correction (Delong et al. 2014), a
+        cell body's orientation among the perturbed coordinates.
         """
         m = self.model
         prm, iprm, ref_u, ref_e, ref_m, _, _, _, ws = m.kernel_arrays
@@ -556,31 +571,44 @@ class ImplicitStepper:
         K.rechart_all(y, m.n, ref_u, ref_e, ws[0], ws[1], ws[2], ws[3], ws[4], ws[9])  # as the kernel
         m.refresh_mobility(y, force=True)
         dm = ws[-1]
-        x = y[3:].reshape(n1, 4)[:, :3]
-        h, gammas, anchor, zeta = m.mobility_arguments()[:4]
-        ms = dm + local_mobility(x, h, gammas[0], gammas[1], anchor, zeta)
-        free = moving_components(anchor, n1)
+        ms, free = m.mobility_matrix(y)
         try:
             chol = np.linalg.cholesky(ms[np.ix_(free, free)])
         except np.linalg.LinAlgError:
             raise SimulationError("the nonlocal mobility is not positive definite at "
                                   "this state (beads closer than the filament radius?)") from None
-        xi = np.zeros(3 * n1)
-        xi[free] = math.sqrt(2.0 * self.kT / dt) * solve_triangular(chol, g[:3 * n1][free], lower=True,
+        nh = 9 if m.cell else 3
+        gq = g[:3 * n1]
+        if m.cell:  # the slots (V, beads 1 … n, Ω): bead 0's normals and the body torque's
+            gq = np.concatenate([gq, g[4 * n1 + 6:4 * n1 + 9]])
+        xq = np.zeros(len(ms))
+        xq[free] = math.sqrt(2.0 * self.kT / dt) * solve_triangular(chol, gq[free], lower=True,
                                                                     trans="T")
+        if m.cell:  # bead forces (none on bead 0), then the body's force and torque
+            xi = np.zeros((n1 + 2, 3))
+            xi[1:n1] = xq[3:3 * n1].reshape(-1, 3)
+            xi[n1], xi[n1 + 1] = xq[:3], xq[3 * n1:]
+        else:
+            xi = xq.reshape(n1, 3)
         ny = len(y)
         w = self._work
         b, yp, ym, f1, f2 = w[1].copy(), w[6], w[7], w[8], w[9]
-        zf, zm, zh = np.zeros((n1, 3)), np.zeros(n1), np.zeros(3)
+        zf, zm, zh = np.zeros((n1, 3)), np.zeros(n1), np.zeros(nh)
         thermal_increment(y, dt, self.kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, ym, f1, f2,
-                          zf, zm, zh, np.zeros((n1, 3)), np.zeros(n1), np.zeros(3), xi.reshape(n1, 3),
+                          zf, zm, zh, np.zeros((n1, 3)), np.zeros(n1), np.zeros(nh), xi,
                           K.general_flag(iprm))
-        wv = g[4 * n1 + 3:4 * n1 + 3 + ny]
-        zf[:] = wv[3:].reshape(n1, 4)[:, :3]
-        zf.reshape(-1)[~free] = 0.0
-        zm[:] = wv[3:].reshape(n1, 4)[:, 3]
+        o = 4 * n1 + nh
+        wv = g[o:o + ny]
+        zf[:] = wv[3:3 + 4 * n1].reshape(n1, 4)[:, :3]
+        zf.reshape(-1)[~free[:3 * n1]] = 0.0
+        zm[:] = wv[3:3 + 4 * n1].reshape(n1, 4)[:, 3]
+        yp = y.copy()
+        yp[3:3 + 4 * n1].reshape(n1, 4)[:, :3] += RFD_DELTA * zf
+        if m.cell:  # the orientation's generalized force: the torque J⁻ᵀ(φ) W_φ at y
+            yp[-3:] += RFD_DELTA * wv[-3:]
+            zh[6:9] = Bd.rotvec_torque(y[-3], y[-2], y[-1], wv[-3], wv[-2], wv[-1])
         frozen = dm.copy()
-        dm[:] = correction(x + RFD_DELTA * zf, *m.mobility_arguments(), symmetric=True)
+        dm[:] = m.correction_at(yp)
         _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1, K.general_flag(iprm))
         dm[:] = frozen
         _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1, K.general_flag(iprm))

@@ -138,12 +138,7 @@ class TumbleData:
 
 def compute(quality: str, cache=None) -> TumbleData:
     """The sweep of :data:`DURATIONS` × :data:`PHASES` and one run without reversal."""
-    from ..errors import ParameterError
-
     hyd = getattr(cache, "hydrodynamics", None)
-    if hyd is not None and not hyd.is_local and THERMAL:
-        raise ParameterError("hydrodynamics", hyd.model, "'rft' for the thermal tumble "
-                             "(thermal noise with a cell body needs the local mobility)")
     hyd = None if hyd is None or hyd.is_local else hyd.to_dict()
     repeats = THERMAL_REPEATS if THERMAL else 1
     jobs = [{"duration": d, "phase": p, "cost": d + RUN_BEFORE + RUN_AFTER}

@@ -15,7 +15,8 @@ import numpy as np
 from ..errors import SimulationError
 from ..helix import DiscreteHelix, discrete_helix
 from ..hydro import body as body_model
-from ..hydro.dynamics import (CellBody, bonds_within, cell_correction, correction, near_beads,
+from ..hydro.dynamics import (CellBody, bonds_within, cell_correction, cell_local_mobility,
+                              correction, local_mobility, moving_components, near_beads,
                               rigid_fit, rotate_correction, turn_limit)
 from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
@@ -373,6 +374,29 @@ class RodModel:
         self._ws[-1][:] = self._correction(x)
         self._frozen = x.copy()
         return True
+
+    def correction_at(self, y: np.ndarray) -> np.ndarray:
+        """ΔM built at state y (returned, the frozen one left as it is; with
+        :attr:`symmetric_mobility` from the symmetric mobility)."""
+        return self._correction(self._mobility_points(y))
+
+    def mobility_matrix(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(M, free): the bead mobility the right-hand side applies at y, the local operator
+        at y plus the frozen ΔM, over the beads or a cell body's slots (V, beads 1 … n, Ω;
+        :func:`~flagellum.hydro.dynamics.cell_mobility`), and the mask of the components the
+        anchor leaves free (the others' rows and columns are zero). Spins and the hook frame
+        keep their local friction and are not part of it."""
+        if not self._nonlocal:
+            raise ValueError("mobility_matrix: only for a nonlocal mobility")
+        x = positions(y)
+        h, (gpar, gperp, _) = self.h, self.gammas
+        if self.cell:
+            ml = cell_local_mobility(x, h, gpar, gperp, self.params.fluid.viscosity,
+                                     self._cell_body(self._mobility_points(y)))
+            return ml + self._ws[-1], np.ones(len(ml), bool)
+        anchor, zeta = self.mobility_arguments()[2:4]
+        return (local_mobility(x, h, gpar, gperp, anchor, zeta) + self._ws[-1],
+                moving_components(anchor, len(x)))
 
     def _correction(self, x: np.ndarray) -> np.ndarray:
         """ΔM at the mobility points x (:meth:`_mobility_points`)."""

@@ -1,0 +1,143 @@
+"""A cell body with the nonlocal mobility in the fixed-step scheme and with thermal noise
+(integrate.brownian, docs/hydrodynamics.md "Thermal noise"): the noise has the covariance of
+the coupled mobility of body and filament, the equilibrium statistics do not depend on the
+mobility, the body diffuses as Einstein and Perrin say, and the deterministic scheme
+converges to CVODE."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from flagellum import Filament, Fluid, Params
+from flagellum.hydro import body as Bd
+from flagellum.hydro.dynamics import Hydrodynamics, cell_mobility
+from flagellum.integrate.brownian import ImplicitStepper
+from flagellum.motor import Boundary, Motor
+from flagellum.rod.model import RodModel, positions
+from flagellum.simulator import Simulator, SolverOptions
+from test_cell_thermal import _diffusion
+
+KT = 4.1e-3
+SBT = Hydrodynamics("sbt")
+
+
+@pytest.mark.parametrize("hook", ["free", "clamped"])
+def test_cell_noise_has_the_covariance_of_the_coupled_mobility(hook):
+    """Fluctuation–dissipation with HI on a cell: over 4000 increments at Δt = 1e-7 s (the
+    Itô drift then adds a relative ≈ 1e-4), the beads' and the orientation's displacements
+    have the covariance 2kT Δt B M_s Bᵀ, with M_s the symmetric part of
+    hydro.dynamics.cell_mobility (body and filament coupled through the body's Stokeslet and
+    rotlet) and B the map of its slots (V, U_1 … U_n, Ω) to the state's rates: bead 0 at
+    V + Ω × d, φ̇ = J(φ)⁻¹ Ω (hydro.body.rotvec_rate). The noise passes through the kernel's
+    local cell motion and ΔM, so this checks that both apply the mobility the noise is drawn
+    from. Sampling error of the normalized covariance ≈ 6 % (as in tests/test_hydro_thermal.py);
+    bound 10 %; the local (RFT) cell's covariance differs by more than 3× that."""
+    p = Params(Filament(length=1.0), Fluid(kT=KT))
+    bd = Boundary(anchor="free", body_radius=0.5, body_aspect=2.0, motor_offset=30.0, hook=hook)
+    m = RodModel(p, Motor(0.0), bd, hydrodynamics=SBT)
+    y = m.initial_state()
+    y[-3:] = [0.05, -0.03, 0.02]
+    dt = 1e-7
+    st = ImplicitStepper(m, 0.0, y, dt, kT=KT, seed=4)
+    rng = np.random.default_rng(9)
+    n1 = m.n + 1
+
+    def displacement(b):
+        return np.concatenate([positions(b).ravel(), b[-3:]])
+
+    bs = np.array([displacement(st._nonlocal_increment(y.copy(), rng.standard_normal(st._n_normals), dt))
+                   for _ in range(4000)])
+    cov = bs.T @ bs / len(bs) / (2 * KT * dt)
+    x = positions(y)
+    cell = m._cell_body(m._mobility_points(y))
+    me = cell_mobility(x, p.fluid.filament_radius, p.fluid.viscosity, cell)
+    ms = 0.5 * (me + me.T)
+    B = np.zeros((3 * n1 + 3, 3 * n1 + 3))
+    B[:3, :3] = np.eye(3)
+    d = x[0] - cell.centre
+    B[:3, -3:] = -np.array([[0, -d[2], d[1]], [d[2], 0, -d[0]], [-d[1], d[0], 0]])  # Ω × d
+    B[3:3 * n1, 3:3 * n1] = np.eye(3 * n1 - 3)
+    B[-3:, -3:] = np.array([Bd.rotvec_rate(*y[-3:], *e) for e in np.eye(3)]).T
+    expect = B @ ms @ B.T
+    rel = np.linalg.norm(cov - expect) / np.linalg.norm(expect)
+    assert rel < 0.1
+    from flagellum.hydro.dynamics import cell_local_mobility
+    ml = B @ cell_local_mobility(x, p.filament.segment_length, *p.gammas[:2], p.fluid.viscosity, cell) @ B.T
+    assert np.linalg.norm(cov - ml) / np.linalg.norm(ml) > 3 * rel
+
+
+def test_thermal_sbt_cell_from_the_cli_runs_and_resumes(cli, tmp_path):
+    """flagellum simulate --body-radius … --hydrodynamics sbt --thermal: a whole swimming
+    cell with HI and noise runs, moves sideways (noise; the deterministic cell swims along
+    its axis), and a second run with the same seed is bit-identical."""
+    from flagellum.trajectory import open_trajectory
+
+    args = ("simulate", "--body-radius", "0.5", "--hydrodynamics", "sbt", "--thermal", "--torque", "1",
+            "--length", "2", "--time", "0.001", "--save-every", "0.00025", "--seed", "4", "--json")
+    out = []
+    for k in range(2):
+        f = tmp_path / f"cell{k}.h5"
+        code, _, err = cli(*args, "-o", str(f))
+        assert code == 0, err
+        out.append(np.asarray(open_trajectory(f)["body_position"]))
+    assert out[0].shape == (5, 3) and np.all(np.isfinite(out[0]))
+    assert np.ptp(out[0][:, 0]) > 0
+    np.testing.assert_array_equal(out[0], out[1])
+
+
+@pytest.mark.slow
+@pytest.mark.ci
+def test_fixed_step_sbt_cell_converges_to_cvode():
+    """Deterministic cell (spheroid, L = 2 µm, M = 1, 0.01 s) with HI: BDF2 with ΔM rebuilt
+    before every step (refresh 0) converges to CVODE with the unfrozen mobility (refresh 0,
+    rtol 1e-8). Measured errors of the body's centre: 0.012 µm at Δt = 2.5e-5 s,
+    0.0033 µm at 1.25e-5 s (ratio 3.7; with RFT the scheme is second order,
+    tests/test_cell_thermal.py), the centre moves 0.23 µm: regression values."""
+    bd = Boundary(anchor="free", body_radius=0.5, body_aspect=2.0)
+    exact = Hydrodynamics("sbt", refresh=0.0)
+
+    def centre(**solver):
+        sim = Simulator(Params(Filament(length=2.0)), Motor(1.0), bd, hydrodynamics=exact,
+                        solver=SolverOptions(**solver))
+        return sim.run(0.01, save_every=0.001, progress=False).body_position
+
+    ref = centre(method="cvode", rtol=1e-8)
+    e1 = np.abs(centre(method="implicit", dt=2.5e-5) - ref).max()
+    e2 = np.abs(centre(method="implicit", dt=1.25e-5) - ref).max()
+    assert e1 < 0.03 and e1 / e2 > 2.5
+
+
+@pytest.mark.slow
+@pytest.mark.ci
+def test_equipartition_of_the_filament_on_a_cell_with_hi():
+    """M = 0, a free hook on a sphere free in 3D, HI between body and filament: ⟨E⟩ = ½kT
+    per quadratic mode, 4N (tests/test_cell_thermal.py), whatever the mobility: noise, drift
+    and the Itô term of the coupled mobility are consistent."""
+    p = Params(Filament(length=2.0), Fluid(kT=KT))
+    n = p.filament.n_segments
+    sim = Simulator(p, Motor(0.0), Boundary(anchor="free", body_radius=0.5), thermal=True, seed=3,
+                    hydrodynamics=SBT, solver=SolverOptions(method="implicit", dt=5e-6, theta=0.5))
+    tr = sim.run(0.04, save_every=2e-5, progress=False)
+    e = tr.energy[len(tr.energy) // 5:]
+    blocks = np.array([b.mean() for b in np.array_split(e, 10)])
+    err = blocks.std(ddof=1) / np.sqrt(10)
+    assert e.mean() / (2 * n * KT) == pytest.approx(1.0, abs=max(0.05, 3 * err / (2 * n * KT)))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("aspect", [1.0, 2.0])
+def test_cell_at_rest_diffuses_as_einstein_and_perrin_with_hi(aspect):
+    """The Einstein–Perrin test of tests/test_cell_thermal.py with HI: a body with a short
+    filament (its drag < 1 % of the body's) diffuses with D = kT/R of the body's resistance
+    (Einstein 1905, Perrin 1934). Noise, Itô drift and the orientation's invariant measure
+    with the coupled mobility: a missing or doubled noise changes D by 100 %. Δt = 1e-5 s
+    (400 lags of 0.2 ms): at 5e-5 s a bead's thermal kick, ≈ 0.06 µm, exceeds these
+    0.04-µm bonds, and the step's frozen ΔM loses its positive near field (the chord
+    iteration then fails)."""
+    measured, expect, n = _diffusion(aspect, 8000, lag=20, dt=1e-5, hydrodynamics=SBT)
+    tol = (3.5 * math.sqrt(2 / n), 3.5 * math.sqrt(1 / n)) * 2
+    for k, name in enumerate(("D along", "D across", "D_r about", "D_r across")):
+        assert measured[k] / expect[k] == pytest.approx(1.0, abs=tol[k]), name

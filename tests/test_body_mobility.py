@@ -99,6 +99,33 @@ def test_grand_mobility_is_reciprocal_and_positive_definite(aspect):
     assert np.abs(mc[:3, -3:] - mc[-3:, :3].T).max() < 1e-3 * np.abs(mc[:3, :3]).max()
 
 
+@pytest.mark.parametrize("aspect, hook", [(1.0, 0.0), (2.5, 1e-3)])
+def test_cell_mobility_is_the_inverse_of_the_projected_resistance(aspect, hook):
+    """hydro.dynamics.cell_mobility works through the constraint U_0 = V + Ω × d on the grand
+    mobility (O(N²), no dense inverse); it must equal its definition by dense inverses,
+    (Pᵀ M⁻¹ P + H)⁻¹ with P the map of the slots q = (V, U_1 … U_n, Ω) to
+    (U_0 … U_n, V, Ω) and H a clamped hook's friction across the motor axis on Ω (here
+    1e-3 pN·µm·s, ≈ 10× the body's 8πηa³ at a = 0.5, so that it shows)."""
+    x = _helix()
+    a = 0.5
+    axis = np.array([0.3, 0.0, 1.0]) / np.linalg.norm([0.3, 0.0, 1.0])
+    centre = x[0] + np.array([0.1, -0.05, 0.0]) + aspect * a * axis
+    cell = D.CellBody(centre, axis, a, aspect, hook_friction=hook)
+    big = D.grand_mobility(x, R, ETA, centre, a, aspect, axis)
+    m = 3 * len(x)
+    P = np.zeros((m + 6, m + 3))
+    P[:3, :3] = np.eye(3)
+    d = x[0] - centre
+    P[:3, m:] = -np.array([[0, -d[2], d[1]], [d[2], 0, -d[0]], [-d[1], d[0], 0]])  # Ω × d
+    P[3:m, 3:m] = np.eye(m - 3)
+    P[m:m + 3, :3], P[m + 3:, m:] = np.eye(3), np.eye(3)
+    res = P.T @ np.linalg.solve(big, P)
+    mm = cell.motor_axis(x[0])
+    res[-3:, -3:] += hook * (np.eye(3) - np.outer(mm, mm))
+    ref = np.linalg.inv(res)
+    np.testing.assert_allclose(D.cell_mobility(x, R, ETA, cell), ref, atol=1e-9 * np.abs(ref).max())
+
+
 def test_body_far_from_the_filament_decouples():
     """Far field: a sphere joined rigidly to a helix at a distance D along its axis. The rigid
     resistance of the pair from the grand mobility tends to the sum of the separate ones (the

@@ -452,9 +452,10 @@ def test_reproduce_tumble_writes_its_files_and_table(tmp_path, monkeypatch):
     monkeypatch.setattr(T, "pmap", lambda fun, jobs: seen.extend(jobs) or [fake(j) for j in jobs])
     assert T.compute("quick", sbt).hydrodynamics == "sbt"
     assert all(j["hydrodynamics"]["model"] == "sbt" for j in seen)  # every run gets the mobility
-    monkeypatch.setattr(T, "THERMAL", True)
-    with pytest.raises(ParameterError, match="hydrodynamics"):  # no thermal cell with SBT
-        T.compute("quick", sbt)
+    monkeypatch.setattr(T, "THERMAL", True)  # thermal runs with SBT: the mobility and a seed each
+    seen.clear()
+    T.compute("quick", sbt)
+    assert all(j["hydrodynamics"]["model"] == "sbt" and j["seed"] is not None for j in seen)
 
 
 def test_the_target_s_runs_are_thermal_with_a_seed_each(monkeypatch):

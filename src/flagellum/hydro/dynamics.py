@@ -216,32 +216,31 @@ class CellBody(NamedTuple):
         return -nrm / np.linalg.norm(nrm)
 
 
-def _cell_map(x, cell: CellBody) -> np.ndarray:
-    """P ((3(n+1) + 6) × 3(n+2)): the generalized velocities q = (V, U_1 … U_n, Ω) of a cell
-    to (U_0 … U_n, V, Ω), bead 0 being the motor point, U_0 = V + Ω × d."""
-    n1 = len(x)
-    m = 3 * n1
-    P = np.zeros((m + 6, m + 3))
-    P[:3, :3] = np.eye(3)
-    P[:3, m:] = -_skew((np.asarray(x[0], float) - cell.centre)[None])[0]
-    P[3:m, 3:m] = np.eye(m - 3)
-    P[m:m + 3, :3], P[m + 3:, m:] = np.eye(3), np.eye(3)
-    return P
-
-
 def cell_mobility(x, radius, viscosity, cell: CellBody) -> np.ndarray:
     """Mobility (3(n+2) square) of a free cell: its generalized velocities q = (V, U_1 … U_n,
     Ω) (3×3 blocks; the body's velocity V and angular velocity Ω first and last) per
     generalized force (F_0 + F_B, F_1 … F_n, T_B + d × F_0): the grand mobility
-    (:func:`grand_mobility`) in resistance form, Pᵀ M⁻¹ P (:func:`_cell_map`), plus a clamped
+    (:func:`grand_mobility`) in resistance form, Pᵀ M⁻¹ P with P the map of q to
+    (U_0 … U_n, V, Ω) (U_0 = V + Ω × d, bead 0 the motor point), plus a clamped
     hook's local friction across the motor axis, inverted."""
     big = grand_mobility(x, radius, viscosity, cell.centre, cell.radius, cell.aspect, cell.axis)
-    P = _cell_map(x, cell)
-    R = P.T @ np.linalg.solve(big, P)
-    if cell.hook_friction:
-        m = cell.motor_axis(x[0])
-        R[-3:, -3:] += cell.hook_friction * (np.eye(3) - np.outer(m, m))
-    return np.linalg.inv(R)
+    n1 = len(x)
+    m = 3 * n1
+    # Pᵀ M⁻¹ P inverted without dense inverses (:func:`_constrained`): P(Pᵀ M⁻¹ P)⁻¹Pᵀ is the
+    # mobility under the constraint C u = U_0 − V − Ω × d = 0, and its rows of V, U_1 … U_n,
+    # Ω (where P is the identity) are the slots' mobility
+    C = np.zeros((3, m + 6))
+    C[:, :3], C[:, m:m + 3] = np.eye(3), -np.eye(3)
+    C[:, m + 3:] = _skew((np.asarray(x[0], float) - cell.centre)[None])[0]
+    bc = big @ C.T
+    w = big - bc @ np.linalg.solve(C @ bc, C @ big)
+    slots = np.r_[m:m + 3, 3:m, m + 3:m + 6]
+    out = w[np.ix_(slots, slots)]
+    if cell.hook_friction:  # + H on Ω's resistance: push-through, (R + SᵀH S)⁻¹ = M − M Sᵀ(1 + H S M Sᵀ)⁻¹ H S M
+        a = cell.motor_axis(x[0])
+        h = cell.hook_friction * (np.eye(3) - np.outer(a, a))
+        out = out - out[:, -3:] @ np.linalg.solve(np.eye(3) + h @ out[-3:, -3:], h @ out[-3:])
+    return out
 
 
 def cell_local_mobility(x, h, gpar, gperp, viscosity, cell: CellBody) -> np.ndarray:

@@ -40,7 +40,6 @@ from .._jit import FASTMATH
 from ..errors import SimulationError
 from ..hydro import body as Bd
 from ..hydro import local as L
-from ..hydro.dynamics import correction, local_mobility, moving_components
 from ..rod import kernels as K
 from .banded import band_factor, band_solve
 

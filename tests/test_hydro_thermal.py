@@ -4,13 +4,15 @@ and a stiff rod diffuses with D = kT R⁻¹ of its nonlocal resistance (Einstein
 
 import numpy as np
 import pytest
+from conftest import assert_one_line_error
 
 from flagellum import Filament, Fluid, Params
 from flagellum.hydro import rft, sbt
 from flagellum.hydro.dynamics import Hydrodynamics, effective_mobility
 from flagellum.hydro import local as L
 from flagellum.integrate.brownian import ImplicitStepper
-from flagellum.motor import Motor
+from flagellum.errors import ParameterError
+from flagellum.motor import Boundary, Motor
 from flagellum.rod.model import RodModel, positions
 from flagellum.simulator import Simulator, SolverOptions
 
@@ -153,3 +155,34 @@ def test_fixed_step_bdf2_with_the_nonlocal_mobility_follows_cvode():
         out[name] = np.asarray(tr.positions), np.asarray(tr.thrust)
     assert np.abs(out["bdf2"][0] - out["cvode"][0]).max() < 2e-3
     assert np.abs(out["bdf2"][1] - out["cvode"][1]).max() < 0.01 * np.abs(out["cvode"][1]).max()
+
+
+def test_thermal_sbt_step_is_limited_by_the_bond_length(cli, tmp_path):
+    """With ΔM frozen over a thermal step, a bead kicked past its bond length makes the step
+    fail (measured on 0.04-µm bonds, the short rod of tests/test_cell_sbt.py: a kick of 0.9 h
+    ran 1 500 steps, 1.07 h failed within 55, docs/hydrodynamics.md "Step size"), so such a
+    Δt is refused up front. The limit is where √(2kTΔt/(γ⊥h)) = h (closed form with γ⊥ of
+    the parameters); RFT is not limited."""
+
+    short = Filament(kappa0=0.0, tau0=0.0, length=0.16, segment_length=0.04)
+    p = Params(short, Fluid(kT=KT))
+    h, gperp = 0.04, p.gammas[1]
+    limit = h ** 2 * gperp * h / (2 * KT)
+    cell = Boundary(anchor="free", body_radius=2.0)
+
+    def make(dt, hyd=SBT, boundary=cell):
+        return Simulator(p, Motor(0.0), boundary, thermal=True, seed=1, hydrodynamics=hyd,
+                         solver=SolverOptions(method="implicit", dt=dt))
+
+    make(0.98 * limit)
+    make(0.98 * limit, boundary=None)
+    make(5e-5, hyd=Hydrodynamics())
+    for boundary in (cell, None):
+        with pytest.raises(ParameterError, match="dt") as e:
+            make(1.02 * limit, boundary=boundary)
+        assert f"{limit:.3g}" in str(e.value)
+    out = tmp_path / "run.h5"
+    code, _, err = cli("simulate", "--length", 0.16, "--segment-length", 0.04, "--kT", KT,
+                       "--hydrodynamics", "sbt", "--dt", 5e-5, "--time", 1e-3, "-o", out)
+    assert_one_line_error(code, err, "dt")
+    assert not out.exists()

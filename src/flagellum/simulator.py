@@ -39,6 +39,7 @@ from .hydro.options import Hydrodynamics
 from .hydro.rft import pinned_helix, pinned_omega_per_torque
 from .integrate import ATOL_PER_RTOL, MAX_STEPS_PER_ADVANCE, default_method
 from .integrate.base import STEPPERS, make_stepper
+from .integrate.brownian import nonlocal_dt_limit
 from .motor import Boundary, Motor
 from .params import EndLoad, Params, Polymorphism, check_choice, check_range, check_real, positive
 from .rod import polymorph as PM
@@ -149,6 +150,13 @@ def check_setup(params: Params, solver: SolverOptions, hydrodynamics: Hydrodynam
         raise ParameterError("kT", params.fluid.kT, "> 0 for a thermal run")
     if thermal and solver.method not in (None, "implicit"):
         raise ParameterError("method", solver.method, "'implicit' for a thermal run")
+    if thermal and not hydrodynamics.is_local and solver.method in (None, "implicit"):
+        h = params.filament.segment_length
+        dt_max = nonlocal_dt_limit(params.fluid.kT, params.gammas[1], h)
+        if solver.dt > dt_max:
+            raise ParameterError("dt", solver.dt, f"<= {dt_max:.3g} s for a thermal run with "
+                                 f"{hydrodynamics.model} hydrodynamics (a bead's thermal kick per "
+                                 f"step must stay below the bond length h = {h:g} µm)")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, (int, np.integer))
                              or not 0 <= seed < 2**63):  # an int64 attribute of the files
         raise ParameterError("seed", seed, "an integer in [0, 2**63 - 1]")

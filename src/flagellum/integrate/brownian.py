@@ -51,6 +51,22 @@ NEWTON_TOL = 1e-6
 #: √(2kTΔt/(γ⊥h)) (≈ 0.027 µm at Δt = 5e-5 s): trajectories then differ from fully converged
 #: ones by ≈ 1e-5 µm, without accumulating over 2000 steps (docs/numerics.md)
 THERMAL_TOL_FRACTION = 2e-3
+#: with a nonlocal mobility, the largest bead kick per step (:func:`bead_kick`) in bond
+#: lengths: ΔM is frozen over the step, and a kick past the bond length makes the step's
+#: chord iteration fail (docs/hydrodynamics.md, "Thermal noise", "Step size")
+NONLOCAL_KICK_LIMIT = 1.0
+
+
+def bead_kick(kT: float, dt: float, gperp: float, h: float) -> float:
+    """A bead's thermal displacement per step across the filament, √(2kTΔt/(γ⊥h)) [µm]
+    (γ⊥ per length, h the bond length)."""
+    return math.sqrt(2.0 * kT * dt / (gperp * h))
+
+
+def nonlocal_dt_limit(kT: float, gperp: float, h: float) -> float:
+    """The largest Δt [s] of a thermal run with a nonlocal mobility: the one whose
+    :func:`bead_kick` is :data:`NONLOCAL_KICK_LIMIT` bond lengths."""
+    return (NONLOCAL_KICK_LIMIT * h) ** 2 * gperp * h / (2.0 * kT)
 #: a chord step that grows the update more than this many times is undone (see implicit_steps)
 REVERT = 4.0
 
@@ -440,7 +456,7 @@ class ImplicitStepper:
         self.tol = NEWTON_TOL if tol is None else float(tol)
         if self.kT > 0 and tol is None:
             gperp, h = model.prm[K.P_GPERP], model.prm[K.P_H]
-            step = math.sqrt(2.0 * self.kT * self.dt / (gperp * h))
+            step = bead_kick(self.kT, self.dt, gperp, h)
             self.tol = max(self.tol, THERMAL_TOL_FRACTION * step)
         self.slow, self.max_iter = float(slow), int(max_iter)
         ny = len(y0)

@@ -16,7 +16,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from flagellum.bench import REGIMES, SBT_REGIMES, _solver, average_errors, load_average, run_regime
+from flagellum.bench import (REGIMES, SBT_REGIMES, _solver, average_errors, load_average, run_regime,
+                             warm_up_regimes)
 from flagellum.hydro.options import Hydrodynamics
 
 
@@ -27,9 +28,7 @@ def main(argv=None) -> dict:
     ap.add_argument("--quick", action="store_true", help="windows a quarter as long")
     ap.add_argument("--out", default="benchmarks/bench_sbt_refresh.json")
     a = ap.parse_args(argv)
-    for name in a.names:  # compile (untimed)
-        for h in (None, Hydrodynamics("sbt")):
-            run_regime(name, window=2e-4, hydrodynamics=h)
+    warm_up_regimes(a.names, (None, Hydrodynamics("sbt")))
     out = {"load_average_before": load_average(), "regimes": {}}
     for name in a.names:
         w = REGIMES[name][1] * (0.25 if a.quick else 1.0)

@@ -349,11 +349,16 @@ def turn_limit(dm: np.ndarray, x: np.ndarray, h: float, gammas) -> float:
     return TURN_SAFETY * max(lam, 0.0) / float(np.abs(loc).sum(axis=1).max())
 
 
+def bond_change(dx: np.ndarray) -> float:
+    """The largest change of a bond vector for bead displacements (or velocities) dx:
+    max |dx_{i+1} − dx_i|."""
+    return float(np.max(np.abs(np.diff(dx, axis=0))))
+
+
 def bonds_within(x: np.ndarray, x_ref: np.ndarray, limit: float) -> bool:
     """Whether no bond of the beads x has changed by more than ``limit`` (a length) against
     x_ref: |(x_{i+1} − x_i) − (x_ref,i+1 − x_ref,i)| ≤ limit."""
-    d = np.diff(x, axis=0) - np.diff(x_ref, axis=0)
-    return float(np.max(np.abs(d))) <= limit
+    return bond_change(x - x_ref) <= limit
 
 
 def rotate_correction(dm, R):

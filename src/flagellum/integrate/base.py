@@ -61,7 +61,8 @@ class Stepper(Protocol):
 
     Optional: ``tracks_mobility`` (bool)
         True where ``advance`` itself checks and rebuilds a frozen nonlocal ΔM
-        (:class:`~flagellum.integrate.frozen.FrozenMobility`, with its ramp between builds);
+        (:class:`~flagellum.integrate.frozen.FrozenMobility`, with its secant model between
+        renewals);
         the simulator then leaves ΔM alone between restarts. Without it, the simulator
         checks ΔM (:meth:`~flagellum.rod.model.RodModel.refresh_mobility`) before each chunk.
     Optional: ``carry(t, y, transform) -> bool``

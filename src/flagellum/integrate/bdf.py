@@ -28,7 +28,7 @@ from . import MAX_STEPS_PER_ADVANCE
 from ..rod import jacobian as RJ
 from ..rod import kernels as K
 from .banded import band_factor, band_solve
-from .frozen import FrozenMobility, ramp_mobility
+from .frozen import FrozenMobility, secant_mobility
 
 MAX_ORDER = 5
 NEWTON_MAXITER = 3  #: CVODE's maxcor
@@ -92,12 +92,12 @@ def drive_value(t, kind, value, ramp, sched_t, sched_v, switches):
 @njit(cache=True)
 def _fun(t, y, out, ka, drive, general):
     """The rod's right-hand side at (t, y); ``drive`` is the pair (the motor's
-    :func:`drive_table`, the ramp of a frozen nonlocal ΔM: the arrays of
-    :class:`~flagellum.integrate.frozen.FrozenMobility`), the inputs that depend on t;
+    :func:`drive_table`, the secant model of a frozen nonlocal ΔM: the arrays of
+    :class:`~flagellum.integrate.frozen.FrozenMobility`), the inputs besides the state;
     ``general`` as in :func:`~flagellum.rod.kernels.model_rhs`."""
-    table, ramp = drive
+    table, secant = drive
     ka[0][K.P_TORQUE] = drive_value(t, *table)
-    ramp_mobility(t, ka[-1][-1], *ramp)
+    secant_mobility(y, ka[-1][-1], *secant)
     K.model_rhs(general, y, out, *ka)
     for i in range(out.shape[0]):
         if not math.isfinite(out[i]):
@@ -522,8 +522,8 @@ class BdfStepper:
     weights 1/(atol + rtol |y|), as CVODE's. ``max_num_steps``: the limit of internal steps
     per :meth:`advance`.
 
-    A frozen nonlocal mobility (``hydrodynamics.refresh`` > 0) is checked at sub-targets and
-    ramped between builds inside the compiled right-hand side
+    A frozen nonlocal mobility (``hydrodynamics.refresh`` > 0) is renewed at planned
+    sub-targets and continued by its secant model inside the compiled right-hand side
     (:class:`~flagellum.integrate.frozen.FrozenMobility`); Newton's iteration matrix is then
     the banded one of the local operator plus the near field of ΔM, the operator CVODE
     preconditions its GMRES with (docs/hydrodynamics.md). Above :data:`KRYLOV_MIN_SEGMENTS`
@@ -587,7 +587,7 @@ class BdfStepper:
 
     @property
     def tracks_mobility(self) -> bool:
-        """Whether :meth:`advance` checks and ramps a frozen nonlocal ΔM itself."""
+        """Whether :meth:`advance` renews a frozen nonlocal ΔM itself (and applies its secant model)."""
         return self._frozen.active
 
     @property

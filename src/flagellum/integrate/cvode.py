@@ -142,8 +142,6 @@ class CvodeStepper:
 
     fixed_step = None
     rng_state = None
-    #: a frozen nonlocal mobility goes over to a rebuilt one continuously in time
-    smooth_refresh = True
 
     def __init__(self, model, t0: float, y0: np.ndarray, rtol: float = 1e-6,
                  atol: float = 1e-8, max_step: float = 0.0,
@@ -176,12 +174,12 @@ class CvodeStepper:
         self._t_max = -np.inf
         self._output = SundialsOutput()
         self._warned: set[str] = set()
-        self._frozen = FrozenMobility(model, smooth=self.smooth_refresh)
+        self._frozen = FrozenMobility(model)
         self.reset(t0, y0)
 
     @property
     def tracks_mobility(self) -> bool:
-        """Whether :meth:`advance` checks and ramps a frozen nonlocal ΔM itself."""
+        """Whether :meth:`advance` renews a frozen nonlocal ΔM itself (and applies its secant model)."""
         return self._frozen.active
 
     @classmethod
@@ -195,8 +193,8 @@ class CvodeStepper:
         if t > self._t_max:  # a new step attempt (CVODE does not expose its counters here)
             self._t_max = t
             self.n_steps += 1
-        self._frozen.apply(t)  # ΔM(t) between two builds: continuous in time
         self._y[:] = y
+        self._frozen.apply(self._y)  # the secant model of ΔM at y
         self.model.rhs(t, self._y, out=yp)
 
     def _writable(self, y, yp):

@@ -1,15 +1,31 @@
 """The frozen nonlocal mobility ΔM inside an adaptive stepper (docs/hydrodynamics.md,
-"Integration in the time stepper"): when it is checked, and how a rebuilt one takes over.
+"Integration in the time stepper"): when it is renewed, and what the kernel applies between
+two renewals.
 
-Both adaptive steppers (CVODE, the Numba BDF) advance to sub-targets that the fastest bead
-takes about half of ``refresh`` to reach (and the fastest-changing bond half of its turn
-limit), check ΔM there (:meth:`RodModel.refresh_mobility
-<flagellum.rod.model.RodModel.refresh_mobility>`: rebuilt, turned or kept) and, after a
-rebuild at time t, let the ΔM that the kernel applies go over linearly in time from its value
-at t to the new one, over the time the last interval between builds took, so that the
-right-hand side has no jump (a jump costs the stepper a run of rejected, shortened steps).
-The ramp is :func:`ramp_mobility`, called per right-hand side: from Python by CVODE's
-callback, from the compiled loop by the BDF.
+**When.** Both adaptive steppers (CVODE, the Numba BDF) advance to sub-targets and renew ΔM
+(:meth:`RodModel.refresh_mobility <flagellum.rod.model.RodModel.refresh_mobility>` with
+``due``: turned if the beads moved rigidly, else rebuilt) at planned times: each one when the
+fastest bead will have moved about ``refresh`` since the last renewal, or a bond changed by
+its turn limit, whichever comes first (:meth:`RodModel.mobility_use
+<flagellum.rod.model.RodModel.mobility_use>`), planned from the interval just passed (at
+most 1.25 times longer, at least a quarter of it). A check half-way renews early where
+the beads have gone past 1.5 times either limit. Renewals at regular intervals, always at
+the beads' true positions, make the sequence of ΔM smooth in time; renewals at the first
+check past the limits, or turns that keep the residual of a rigid fit, make it jagged, and
+each kink of what the kernel applies costs the BDF rejected steps and its high orders
+(docs/hydrodynamics.md, "Why planned renewals and a secant").
+
+**What.** Between renewals the kernel applies the secant model
+
+    ΔM(y) = ΔM_k + w(y) (ΔM_k − ΔM_{k−1}),   w(y) = d · (x(y) − x_k) / |d|²,
+
+d = x_k − x_{k−1} the beads' displacement between the last two renewals (x the bead
+positions): ΔM's first-order change along the direction the beads last moved, exact at both
+renewals, and a function of the state alone (no lag behind the shape; a time ramp from one
+ΔM to the next lags by a whole interval). At a renewal the right-hand side jumps by the
+secant's second-order error. ``w`` is held within [:data:`W_LO`, :data:`W_HI`]. The model is
+:func:`secant_mobility`, called per right-hand side: from Python by CVODE's callback, from
+the compiled loop by the BDF.
 """
 
 from __future__ import annotations
@@ -17,128 +33,133 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from ..hydro.dynamics import bond_change
 from ..rod.model import positions as m_positions
 
-#: ramp parameters (the float array of :func:`ramp_mobility`): start, duration, the fraction
-#: applied last (−1: none yet), and whether a ramp is active (1) or ΔM stays as it is (0)
-R_T0, R_TAU, R_S, R_ACTIVE = range(4)
+#: the secant parameters (the float array of :func:`secant_mobility`): whether the secant
+#: model is on (1; 0: ΔM stays as built), and the w it applied last (NaN: none yet)
+R_ACTIVE, R_W = range(2)
+#: the range w is held to: the model is exact at w = 0 (the last renewal) and w = −1 (the one
+#: before); the next renewal comes near w = 1
+W_LO, W_HI = -1.5, 2.5
+#: the fraction of the limits (bead displacement over ``refresh``, bond change over the
+#: turn limit) that a planned interval uses; past EARLY_USE at the half-way check, ΔM is
+#: renewed there; the longest and the shortest next interval relative to the last
+TARGET_USE = 1.0
+EARLY_USE = 1.5
+PLAN_GROWTH, PLAN_SHRINK = 1.25, 0.25
 
 
 @njit(cache=True)
-def ramp_mobility(t, dm, frm, delta, rp):
-    """ΔM(t) = frm + s delta with s = (t − t0)/τ clipped to [0, 1], written into ``dm`` when
-    s has changed since the last call (no-op without an active ramp)."""
+def secant_mobility(y, dm, base, G, xu, rp):
+    """ΔM(y) = base + w G with w = xu[1] · (x(y) − xu[0]) (x the bead positions of the
+    state y), written into ``dm`` when w has changed (no-op with the model off)."""
     if rp[R_ACTIVE] == 0.0:
         return
-    s = min(1.0, max(0.0, (t - rp[R_T0]) / rp[R_TAU]))
-    if s == rp[R_S]:
+    nb = xu.shape[1] // 3
+    w = 0.0
+    for i in range(nb):
+        for c in range(3):
+            w += xu[1, 3 * i + c] * (y[3 + 4 * i + c] - xu[0, 3 * i + c])
+    w = min(W_HI, max(W_LO, w))
+    if w == rp[R_W]:
         return
     m = dm.shape[0]
     for i in range(m):
         for j in range(m):
-            dm[i, j] = frm[i, j] + s * delta[i, j]
-    rp[R_S] = s
+            dm[i, j] = base[i, j] + w * G[i, j]
+    rp[R_W] = w
 
 
-#: the first sub-interval after a (re)start where the bond limit can bind, as a fraction of
-#: the one the current speeds give
+#: the first planned interval after a (re)start where the bond limit can bind, as a fraction
+#: of the one the current speeds give
 FIRST_SUB_FRACTION = 1 / 32
 
 
-def _bond_change(dx: np.ndarray) -> float:
-    """The largest change of a bond vector for bead displacements (or velocities) dx."""
-    return float(np.max(np.abs(np.diff(dx, axis=0))))
-
-
 class FrozenMobility:
-    """The checks and the ramp of a model's frozen ΔM for one stepper.
+    """The renewals and the secant model of a model's frozen ΔM for one stepper.
 
     ``active``: a nonlocal mobility with ``refresh`` > 0 (with ``refresh`` = 0 the model
-    rebuilds ΔM at every :meth:`RodModel.rhs` call instead). ``smooth``: ramp after a
-    rebuild (else ΔM jumps). :attr:`arrays` (frm, delta, rp) are what
-    :func:`ramp_mobility` reads.
+    rebuilds ΔM at every :meth:`RodModel.rhs` call instead). :attr:`arrays` (base, G, xu, rp)
+    are what :func:`secant_mobility` reads: ΔM_k, ΔM_k − ΔM_{k−1}, (x_k, d/|d|²) and the
+    parameters.
     """
 
-    def __init__(self, model, smooth: bool = True):
+    def __init__(self, model):
         self.model = model
-        self.smooth = smooth
         self.active = (not model.hydrodynamics.is_local) and model.hydrodynamics.refresh > 0
         size = model.kernel_arrays[-1][-1].shape[0] if self.active else 0
-        self.arrays = (np.zeros((size, size)), np.zeros((size, size)), np.zeros(4))
+        nb = model.n + 1 if self.active else 0
+        self.arrays = (np.zeros((size, size)), np.zeros((size, size)), np.zeros((2, 3 * nb)),
+                       np.zeros(2))
         self.reset(0.0)
 
     def reset(self, t0: float) -> None:
-        """Start over at t0 (a restarted stepper): no ramp, sub-interval from the bead speeds."""
-        self.arrays[2][:] = (0.0, 1.0, -1.0, 0.0)
-        self._target = None  #: the ΔM built (or turned) last: where the ramp goes
-        self.last_build = float(t0)
-        self.sub = 0.0
+        """Start over at t0 (a restarted stepper): the ΔM built last as it is, no secant yet,
+        the next interval planned from the bead speeds."""
+        self.arrays[3][:] = (0.0, np.nan)
+        self.last = float(t0)  #: the time of the last renewal
+        self.plan = 0.0  #: the planned interval to the next one (0: plan from the speeds)
 
-    def apply(self, t: float) -> None:
-        """Set the kernel's ΔM to its ramped value at t."""
-        if self.arrays[2][R_ACTIVE]:
-            ramp_mobility(t, self.model.kernel_arrays[-1][-1], *self.arrays)
+    def apply(self, y: np.ndarray) -> None:
+        """Set the kernel's ΔM to the secant model's value at y."""
+        if self.arrays[3][R_ACTIVE]:
+            secant_mobility(y, self.model.kernel_arrays[-1][-1], *self.arrays)
 
-    def check(self, t: float, y: np.ndarray, start: float | None = None) -> None:
-        """Rebuild (or turn) ΔM if the beads of y (at t) have moved too far, and start the
-        ramp at ``start`` (default t): the stepper's own time, which is past t when it
-        interpolated y there (a ramp begun at t would make the right-hand side jump)."""
+    def renew(self, y: np.ndarray) -> None:
+        """Renew ΔM at the beads of y (turned or rebuilt) and set the secant from the last
+        renewal to this one."""
         m = self.model
         dm = m.kernel_arrays[-1][-1]
-        frm, delta, rp = self.arrays
-        t0 = t if start is None else max(t, start)
-        if rp[R_ACTIVE]:  # the value applied at t0
-            rp[R_S] = -1.0
-            ramp_mobility(t0, dm, frm, delta, rp)
-        current = dm.copy() if self.smooth else None
+        base, G, xu, rp = self.arrays
+        nb = m.n + 1
         if rp[R_ACTIVE]:
-            # the model compares with, and turns, the ΔM it built last (its frozen beads are
-            # that build's), not the ramp's blend: a blend turned as the new target would
-            # drop the rest of the ramp and keep part of an older build
-            dm[:] = self._target
-        if not m.refresh_mobility(y):
-            if rp[R_ACTIVE]:
-                dm[:] = current
-            return
-        self._target = dm.copy()
-        if self.smooth and t > self.last_build:
-            frm[:] = current
-            np.subtract(dm, current, out=delta)
-            rp[:] = (t0, t - self.last_build, -1.0, 1.0)
-        else:
-            rp[R_ACTIVE] = 0.0
-        self.last_build = t
+            # the model compares with, and turns, the ΔM it renewed last (its frozen beads
+            # are that renewal's), not the secant's value at some state
+            dm[:] = base
+        if m._frozen is None:  # nothing built yet
+            m.refresh_mobility(y, force=True)
+        prev, x_prev = dm.copy(), m._frozen[:nb].ravel().copy()
+        m.refresh_mobility(y, due=True)
+        x_new = m._frozen[:nb].ravel()
+        d = x_new - x_prev
+        dd = float(d @ d)
+        np.subtract(dm, prev, out=G)
+        base[:] = dm
+        xu[0] = x_new
+        xu[1] = d / dd if dd > 0.0 else 0.0
+        rp[:] = (1.0, 0.0)  # dm holds ΔM_k: w = 0
 
     def advance(self, t_from: float, y_from: np.ndarray, t: float, step):
         """Advance from (t_from, y_from) to t through sub-targets, ``step(tn)`` returning
-        (ok, y at tn, result, the stepper's own time); ΔM is checked after each. Returns the
-        last ``result`` (also the failed one)."""
+        (ok, y at tn, result, the stepper's own time), renewing ΔM at the planned times.
+        Returns the last ``result`` (also the failed one)."""
         m = self.model
         refresh, bond = m.hydrodynamics.refresh, m.turn_limit * m.h
-        tc, xc = t_from, m_positions(y_from)
-        if self.sub <= 0:  # first call: from the bead speeds now
+        tc = t_from
+        if self.plan <= 0:  # first call after a (re)start: from the bead speeds now
             u = m_positions(m.rhs(tc, y_from))
-            rate = max(float(np.max(np.abs(u))) / refresh, _bond_change(u) / bond)
-            self.sub = 0.5 / rate if rate > 0 else t - tc
+            rate = max(float(np.max(np.abs(u))) / refresh, bond_change(u) / bond)
+            self.plan = TARGET_USE / rate if rate > 0 else t - tc
             if bond < 2 * refresh:
                 # the bond limit can bind (fine filaments): passing it is unstable, not just
                 # less accurate, and from rest the bonds speed up 40-fold within microseconds
-                # (N = 400), so begin with a small part and let the sub-intervals grow
-                self.sub *= FIRST_SUB_FRACTION
+                # (N = 400), so begin with a small part and let the intervals grow
+                self.plan *= FIRST_SUB_FRACTION
+            self.last = min(self.last, tc)
         while True:
-            tn = min(t, tc + self.sub)
-            if t - tn < 0.25 * self.sub:
-                tn = t
-            ok, y, res, t_own = step(tn)
+            due = self.last + self.plan
+            tn = min(t, due, tc + 0.5 * self.plan)
+            ok, y, res, _ = step(tn)
             if not ok:
                 return res
-            xn = m_positions(y)
-            # the fraction of either limit used: the beads' refresh distance and the bonds'
-            # turn limit (RodModel.refresh_mobility)
-            used = max(float(np.max(np.abs(xn - xc))) / refresh, _bond_change(xn - xc) / bond)
-            if used > 0:
-                self.sub = min(2.0, max(0.25, 0.5 / used)) * (tn - tc)
-            self.check(tn, y, t_own)
-            tc, xc = tn, xn
+            used = m.mobility_use(y)
+            if tn >= due - 1e-12 * max(1.0, abs(due)) or used > EARLY_USE:
+                interval = tn - self.last
+                self.renew(y)
+                self.last = tn
+                if used > 0:
+                    self.plan = min(PLAN_GROWTH, max(PLAN_SHRINK, TARGET_USE / used)) * interval
+            tc = tn
             if tn >= t:
                 return res

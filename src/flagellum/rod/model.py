@@ -17,7 +17,7 @@ from ..helix import DiscreteHelix, discrete_helix
 from ..hydro import body as body_model
 from ..hydro.dynamics import (CellBody, bonds_within, cell_correction, cell_local_mobility,
                               correction, local_mobility, moving_components, near_beads,
-                              rigid_fit, rotate_correction, turn_limit)
+                              rigid_fit, rotate_correction, turn_limit, bond_change)
 from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
 from ..params import EndLoad, Params
@@ -42,6 +42,9 @@ def nonlocal_band(band: tuple[int, int], near: int) -> tuple[int, int]:
 
 _HOOK = {"free": K.HOOK_FREE, "elastic": K.HOOK_ELASTIC, "clamped": K.HOOK_CLAMPED}
 _ANCHOR = {"fixed": K.ANCHOR_FIXED, "sphere": K.ANCHOR_SPHERE, "free": K.ANCHOR_FREE}
+#: a renewal of ΔM that a stepper asks for (``refresh_mobility(due=True)``) turns it only
+#: where the best rotation of the frozen beads leaves at most this fraction of ``refresh``
+DUE_TURN_RESIDUAL = 0.1
 _DRIVE = {"torque": K.DRIVE_TORQUE, "speed": K.DRIVE_SPEED, "law": K.DRIVE_LAW}
 
 
@@ -347,18 +350,22 @@ class RodModel:
         self.omega_frame = float(omega)
         self.prm[K.P_OMEGA] = self.omega_frame
 
-    def refresh_mobility(self, y: np.ndarray, force: bool = False) -> bool:
+    def refresh_mobility(self, y: np.ndarray, force: bool = False, due: bool = False) -> bool:
         """Rebuild the frozen nonlocal correction ΔM at the beads of y if one has moved by more
         than ``hydrodynamics.refresh`` since the last build, or a bond has turned by more than
-        :func:`~flagellum.hydro.dynamics.turn_limit` (always with ``force``); returns whether
-        it did. A no-op for the local model."""
+        :func:`~flagellum.hydro.dynamics.turn_limit` (always with ``force``), or turn it where
+        the beads moved rigidly within those limits; returns whether it did. ``due``: renew it
+        whatever the beads did, turned only where the rotation leaves at most
+        :data:`DUE_TURN_RESIDUAL` of ``refresh`` (a renewal that a stepper's secant model
+        continues from: a turn's residual error would be a kink in it). A no-op for the
+        local model."""
         if not self._nonlocal:
             return False
         x = self._mobility_points(y)
         n1 = self.n + 1
         if not force and self._frozen is not None:
             bond = self.turn_limit * self.h
-            if (np.max(np.abs(x - self._frozen)) <= self.hydrodynamics.refresh
+            if (not due and np.max(np.abs(x - self._frozen)) <= self.hydrodynamics.refresh
                     and bonds_within(x[:n1], self._frozen[:n1], bond)):
                 return False
             # a rigid rotation of the frozen beads (about bead 0): turn ΔM instead of rebuilding
@@ -367,13 +374,26 @@ class RodModel:
             rot, resid = rigid_fit(self._frozen, x, _ANCHOR[b.anchor],
                                    axial=(b.anchor != "fixed" and bool(b.sphere_radius)) or None)
             turned = x[0] + (self._frozen - self._frozen[0]) @ rot.T
-            if resid <= self.hydrodynamics.refresh and bonds_within(x[:n1], turned[:n1], bond):
+            within = self.hydrodynamics.refresh * (DUE_TURN_RESIDUAL if due else 1.0)
+            if resid <= within and bonds_within(x[:n1], turned[:n1], bond):
                 self._ws[-1][:] = rotate_correction(self._ws[-1], rot)
                 self._frozen = turned
                 return True
         self._ws[-1][:] = self._correction(x)
         self._frozen = x.copy()
         return True
+
+    def mobility_use(self, y: np.ndarray) -> float:
+        """The fraction of the limits of :meth:`refresh_mobility` that the beads of y have used
+        since ΔM was last built or turned: the largest bead displacement over
+        ``hydrodynamics.refresh`` or the largest bond change over the turn limit's length,
+        whichever is larger (0 for the local model or before the first build)."""
+        if not self._nonlocal or self._frozen is None:
+            return 0.0
+        x = self._mobility_points(y)
+        d = x - self._frozen
+        bond = bond_change(d[:self.n + 1]) / (self.turn_limit * self.h)
+        return max(float(np.max(np.abs(d))) / self.hydrodynamics.refresh, bond)
 
     def correction_at(self, y: np.ndarray) -> np.ndarray:
         """ΔM built at state y (returned, the frozen one left as it is; with

@@ -112,16 +112,15 @@ class FrozenMobility:
         m = self.model
         dm = m.kernel_arrays[-1][-1]
         base, G, xu, rp = self.arrays
-        nb = m.n + 1
         if rp[R_ACTIVE]:
             # the model compares with, and turns, the ΔM it renewed last (its frozen beads
             # are that renewal's), not the secant's value at some state
             dm[:] = base
-        if m._frozen is None:  # nothing built yet
+        if m.frozen_beads is None:  # nothing built yet
             m.refresh_mobility(y, force=True)
-        prev, x_prev = dm.copy(), m._frozen[:nb].ravel().copy()
+        prev, x_prev = dm.copy(), m.frozen_beads.ravel().copy()
         m.refresh_mobility(y, due=True)
-        x_new = m._frozen[:nb].ravel()
+        x_new = m.frozen_beads.ravel()
         d = x_new - x_prev
         dd = float(d @ d)
         np.subtract(dm, prev, out=G)

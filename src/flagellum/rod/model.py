@@ -383,6 +383,12 @@ class RodModel:
         self._frozen = x.copy()
         return True
 
+    @property
+    def frozen_beads(self) -> np.ndarray | None:
+        """The bead positions ((n+1, 3)) at which ΔM was last built or turned (None before
+        the first build)."""
+        return None if self._frozen is None else self._frozen[:self.n + 1]
+
     def mobility_use(self, y: np.ndarray) -> float:
         """The fraction of the limits of :meth:`refresh_mobility` that the beads of y have used
         since ΔM was last built or turned: the largest bead displacement over

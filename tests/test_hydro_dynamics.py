@@ -301,7 +301,7 @@ def test_free_swimmer_speed_matches_the_sbt_rigid_body():
 def test_frozen_mobility_converges_to_the_unfrozen_one_with_the_refresh_distance():
     """Anchored filament from the pinned helix at M = 1.6 (N = 50, 0.02 s, the tip swinging
     out): the thrust's largest deviation from the unfrozen reference (refresh 0) shrinks with
-    the refresh distance (measured 0.037 % at 0.02 µm, 0.0042 % at 0.005 µm, with the secant
+    the refresh distance (measured 0.035 % at 0.02 µm, 0.0035 % at 0.005 µm, with the secant
     model between renewals; a time ramp between builds gave 0.25 % and 0.073 %, and ΔM
     checked only between the simulator's chunks 1.4 % at any refresh distance, the beads
     having moved further than that within one chunk of the start)."""

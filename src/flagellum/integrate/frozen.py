@@ -17,13 +17,16 @@ each kink of what the kernel applies costs the BDF rejected steps and its high o
 
 **What.** Between renewals the kernel applies the secant model
 
-    ΔM(y) = ΔM_k + w(y) (ΔM_k − ΔM_{k−1}),   w(y) = d · (x(y) − x_k) / |d|²,
+    ΔM(y) = B_k + w(y) G_k,   w(y) = d · (x(y) − x_k) / |d|²,
 
 d = x_k − x_{k−1} the beads' displacement between the last two renewals (x the bead
-positions): ΔM's first-order change along the direction the beads last moved, exact at both
-renewals, and a function of the state alone (no lag behind the shape; a time ramp from one
-ΔM to the next lags by a whole interval). At a renewal the right-hand side jumps by the
-secant's second-order error. ``w`` is held within [:data:`W_LO`, :data:`W_HI`]. The model is
+positions). One interval on (w = 1) it is the secant's extrapolation 2 S_k − S_{k−1} of the
+renewed ΔM's S: ΔM's first-order change along the direction the beads last moved. It starts
+(w = 0) from the old model's value at the renewal, so the right-hand side does not jump,
+where the beads went on about as before (:data:`CONTINUE_W`), else from S_k, with a jump of
+the secant's second-order error (:meth:`FrozenMobility.renew`). It is a function of the
+state alone, with no lag behind the shape (a time ramp from one ΔM to the next lags by a
+whole interval). ``w`` is held within [:data:`W_LO`, :data:`W_HI`]. The model is
 :func:`secant_mobility`, called per right-hand side: from Python by CVODE's callback, from
 the compiled loop by the BDF.
 """
@@ -39,8 +42,8 @@ from ..rod.model import positions as m_positions
 #: the secant parameters (the float array of :func:`secant_mobility`): whether the secant
 #: model is on (1; 0: ΔM stays as built), and the w it applied last (NaN: none yet)
 R_ACTIVE, R_W = range(2)
-#: the range w is held to: the model is exact at w = 0 (the last renewal) and w = −1 (the one
-#: before); the next renewal comes near w = 1
+#: the range w is held to: w = 0 at the last renewal, −1 at the one before; the next renewal
+#: comes near w = 1
 W_LO, W_HI = -1.5, 2.5
 #: the fraction of the limits (bead displacement over ``refresh``, bond change over the
 #: turn limit) that a planned interval uses; past EARLY_USE at the half-way check, ΔM is
@@ -48,6 +51,9 @@ W_LO, W_HI = -1.5, 2.5
 TARGET_USE = 1.0
 EARLY_USE = 1.5
 PLAN_GROWTH, PLAN_SHRINK = 1.25, 0.25
+#: the range of the old model's w at a renewal within which the new model continues from the
+#: old one's value (no jump; the old error carried on, times 1 − w, at most ½)
+CONTINUE_W = (0.5, 1.5)
 
 
 @njit(cache=True)
@@ -81,8 +87,7 @@ class FrozenMobility:
 
     ``active``: a nonlocal mobility with ``refresh`` > 0 (with ``refresh`` = 0 the model
     rebuilds ΔM at every :meth:`RodModel.rhs` call instead). :attr:`arrays` (base, G, xu, rp)
-    are what :func:`secant_mobility` reads: ΔM_k, ΔM_k − ΔM_{k−1}, (x_k, d/|d|²) and the
-    parameters.
+    are what :func:`secant_mobility` reads: B_k, G_k, (x_k, d/|d|²) and the parameters.
     """
 
     def __init__(self, model):
@@ -100,6 +105,7 @@ class FrozenMobility:
         self.arrays[3][:] = (0.0, np.nan)
         self.last = float(t0)  #: the time of the last renewal
         self.plan = 0.0  #: the planned interval to the next one (0: plan from the speeds)
+        self._sample = None  #: the ΔM renewed last (turns and comparisons start from it)
 
     def apply(self, y: np.ndarray) -> None:
         """Set the kernel's ΔM to the secant model's value at y."""
@@ -108,26 +114,43 @@ class FrozenMobility:
 
     def renew(self, y: np.ndarray) -> None:
         """Renew ΔM at the beads of y (turned or rebuilt) and set the secant from the last
-        renewal to this one."""
+        renewal to this one. With S_k the ΔM renewed k-th and C the old model's value at y
+        (where its w was w*), the new model is C + w (2 S_k+1 − S_k − C): no jump at y, and
+        one interval on (w = 1) the secant's extrapolation 2 S_k+1 − S_k. The old model's
+        error at y, E = C − S_k+1, then reaches the next renewal as (1 − w*) E, so this is
+        done only for w* within :data:`CONTINUE_W` (the beads went on about as they did:
+        the error shrinks at least 2×); otherwise the new model starts at S_k+1 (a jump of E,
+        and no error carried)."""
         m = self.model
         dm = m.kernel_arrays[-1][-1]
         base, G, xu, rp = self.arrays
+        carry = False
         if rp[R_ACTIVE]:
+            rp[R_W] = np.nan
+            secant_mobility(y, dm, *self.arrays)
+            current = dm.copy()  # C
+            carry = CONTINUE_W[0] <= rp[R_W] <= CONTINUE_W[1]
             # the model compares with, and turns, the ΔM it renewed last (its frozen beads
             # are that renewal's), not the secant's value at some state
-            dm[:] = base
+            dm[:] = self._sample
         if m.frozen_beads is None:  # nothing built yet
             m.refresh_mobility(y, force=True)
         prev, x_prev = dm.copy(), m.frozen_beads.ravel().copy()
         m.refresh_mobility(y, due=True)
+        self._sample = dm.copy()
         x_new = m.frozen_beads.ravel()
         d = x_new - x_prev
         dd = float(d @ d)
-        np.subtract(dm, prev, out=G)
-        base[:] = dm
+        np.subtract(dm, prev, out=G)  # S_k+1 − S_k
+        if carry:
+            G -= current - dm
+            base[:] = current
+            dm[:] = current
+        else:
+            base[:] = dm
         xu[0] = x_new
         xu[1] = d / dd if dd > 0.0 else 0.0
-        rp[:] = (1.0, 0.0)  # dm holds ΔM_k: w = 0
+        rp[:] = (1.0, 0.0)  # dm holds the model's value at w = 0
 
     def advance(self, t_from: float, y_from: np.ndarray, t: float, step):
         """Advance from (t_from, y_from) to t through sub-targets, ``step(tn)`` returning

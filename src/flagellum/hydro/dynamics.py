@@ -30,6 +30,7 @@ its stresslet, and the strain part of Faxén's law for a spheroid.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import NamedTuple
 
@@ -43,9 +44,16 @@ from .options import MODELS, REFRESH, Hydrodynamics
 def bond_tangents(x: np.ndarray) -> np.ndarray:
     """The (n+1, 3) tangent table of :func:`flagellum.hydro.local.bead_node` (row i ≥ 1: the
     unit vector of bond i; row 0, the hook frame, is not used there)."""
-    d = np.diff(x, axis=0)
+    return _bond_tangents(np.ascontiguousarray(x, dtype=float))
+
+
+@njit(cache=True)
+def _bond_tangents(x):
     T = np.zeros_like(x)
-    T[1:] = d / np.linalg.norm(d, axis=1)[:, None]
+    for j in range(1, x.shape[0]):
+        d0, d1, d2 = x[j, 0] - x[j - 1, 0], x[j, 1] - x[j - 1, 1], x[j, 2] - x[j - 1, 2]
+        ln = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        T[j, 0], T[j, 1], T[j, 2] = d0 / ln, d1 / ln, d2 / ln
     return T
 
 
@@ -54,39 +62,34 @@ def local_mobility(x, h, gpar, gperp, anchor, zeta) -> np.ndarray:
     at bead positions x: the operator of :func:`flagellum.rod.kernels.rhs` without ΔM."""
     n = len(x) - 1
     M = np.zeros((3 * (n + 1), 3 * (n + 1)))
-    _fill_local(bond_tangents(x), n, h, gpar, gperp, anchor, zeta, M)
+    _fill_local(bond_tangents(x), n, h, gpar, gperp, anchor, zeta, M, 1.0)
     return M
 
 
 @njit(cache=True)
-def _fill_local(T, n, h, gpar, gperp, anchor, zeta, M):
+def _fill_local(T, n, h, gpar, gperp, anchor, zeta, M, scale):
+    """M += ``scale`` · the local mobility's diagonal blocks."""
     for i in range(n + 1):
         tx, ty, tz, zpar, zperp, mode = L.bead_friction(T, i, n, h, gpar, gperp, anchor, zeta)
         o = 3 * i
         if mode == L.AXIAL:
-            M[o + 2, o + 2] = 1.0 / zpar
+            M[o + 2, o + 2] += scale / zpar
         elif mode == L.FREE:
             t = (tx, ty, tz)
             for a in range(3):
                 for b in range(a, 3):  # symmetric to the last bit
-                    v = (1.0 / zpar - 1.0 / zperp) * t[a] * t[b] + (1.0 / zperp if a == b else 0.0)
-                    M[o + a, o + b] = v
-                    M[o + b, o + a] = v
+                    v = scale * ((1.0 / zpar - 1.0 / zperp) * t[a] * t[b]
+                                 + (1.0 / zperp if a == b else 0.0))
+                    M[o + a, o + b] += v
+                    if b != a:
+                        M[o + b, o + a] += v
 
 
 def sphere_coupling(r: np.ndarray, a: float, viscosity: float) -> np.ndarray:
     """(m, 3, 3) blocks G(r) of a translating sphere of radius a at offsets r (m, 3): the flow
     at r per force on the sphere, and (Faxén's law) the sphere's velocity per point force at r.
     Outside: [(1 + r̂r̂)/r + a²/3 (1 − 3r̂r̂)/r³]/8πη; inside: rigid motion, 1/(6πηa)."""
-    d = np.linalg.norm(r, axis=1)
-    out = np.empty((len(r), 3, 3))
-    inside = d < a
-    out[inside] = np.eye(3) / (6 * math.pi * viscosity * a)
-    o = ~inside
-    ro, do = r[o], d[o][:, None, None]
-    rr = ro[:, :, None] * ro[:, None, :] / do ** 2
-    out[o] = ((np.eye(3) + rr) / do + a * a / 3 * (np.eye(3) - 3 * rr) / do ** 3) / (8 * math.pi * viscosity)
-    return out
+    return body_flow(r, a, viscosity)[0]
 
 
 def _skew(r: np.ndarray) -> np.ndarray:
@@ -104,17 +107,33 @@ def body_flow(r: np.ndarray, radius: float, viscosity: float, aspect: float = 1.
     rotlet at the centre, with |r| bounded below by the equatorial radius (no finite-size
     terms). By reciprocity, G_tᵀ and G_rᵀ give the body's velocity and angular velocity per
     point force at r (Faxén: the mean flow, half the vorticity)."""
-    r = np.asarray(r, float)
-    d = np.linalg.norm(r, axis=1)
-    c8 = 8 * math.pi * viscosity
-    if aspect == 1.0:
-        gt = sphere_coupling(r, radius, viscosity)
-    else:
-        de = np.maximum(d, radius)[:, None, None]
-        rr = r[:, :, None] * r[:, None, :] / (de * de)
-        gt = (np.eye(3) + rr) / (c8 * de)
-    gr = -_skew(r) / (c8 * np.maximum(d, radius)[:, None, None] ** 3)
+    r = np.ascontiguousarray(r, dtype=float)
+    gt, gr = np.empty((len(r), 3, 3)), np.empty((len(r), 3, 3))
+    _body_flow_into(r, float(radius), float(viscosity), float(aspect), gt, gr)
     return gt, gr
+
+
+@njit(cache=True)
+def _body_flow_into(r, radius, viscosity, aspect, gt, gr):
+    """:func:`body_flow` into gt and gr."""
+    c8 = 8.0 * math.pi * viscosity
+    for i in range(r.shape[0]):
+        d = math.sqrt(r[i, 0] ** 2 + r[i, 1] ** 2 + r[i, 2] ** 2)
+        de = max(d, radius)
+        for a in range(3):
+            for b in range(3):
+                one = 1.0 if a == b else 0.0
+                if aspect != 1.0:
+                    gt[i, a, b] = (one + r[i, a] * r[i, b] / (de * de)) / (c8 * de)
+                elif d < radius:
+                    gt[i, a, b] = one / (6.0 * math.pi * viscosity * radius)
+                else:
+                    rr = r[i, a] * r[i, b] / (d * d)
+                    gt[i, a, b] = ((one + rr) / d + radius * radius / 3.0 * (one - 3.0 * rr) / d ** 3) / c8
+        s = 1.0 / (c8 * de ** 3)  # −[r]× / 8πη max(|r|, a)³
+        gr[i, 0, 0], gr[i, 0, 1], gr[i, 0, 2] = 0.0, r[i, 2] * s, -r[i, 1] * s
+        gr[i, 1, 0], gr[i, 1, 1], gr[i, 1, 2] = -r[i, 2] * s, 0.0, r[i, 0] * s
+        gr[i, 2, 0], gr[i, 2, 1], gr[i, 2, 2] = r[i, 1] * s, -r[i, 0] * s, 0.0
 
 
 def grand_mobility(x, radius, viscosity, centre, body_radius, body_aspect=1.0, axis=(0.0, 0.0, 1.0),
@@ -127,20 +146,50 @@ def grand_mobility(x, radius, viscosity, centre, body_radius, body_aspect=1.0, a
     :class:`~flagellum.hydro.body.BodyResistance` instead)."""
     from .body import body_resistance
 
+    x = sbt._check_positions(x)
     n1 = len(x)
-    m = 3 * n1
-    gt, gr = body_flow(np.asarray(x, float) - np.asarray(centre, float), body_radius, viscosity,
-                       body_aspect)
     rb = body or body_resistance(body_radius, body_aspect, viscosity)
     e = np.asarray(axis, float)
-    ee = np.outer(e, e) / (e @ e)
-    big = np.zeros((m + 6, m + 6))
-    big[:m, :m] = sbt.mobility(x, radius, viscosity)
-    big[:m, m:m + 3], big[:m, m + 3:] = gt.reshape(m, 3), gr.reshape(m, 3)
-    big[m:m + 3, :m], big[m + 3:, :m] = gt.reshape(m, 3).T, gr.reshape(m, 3).T
-    big[m:m + 3, m:m + 3] = ee / rb.translation_axial + (np.eye(3) - ee) / rb.translation_transverse
-    big[m + 3:, m + 3:] = ee / rb.rotation_axial + (np.eye(3) - ee) / rb.rotation_transverse
+    big = np.empty((3 * n1 + 6, 3 * n1 + 6))
+    _grand_into(x, _blob_sizes(radius, n1 - 1), sbt._bead_lengths(sbt._bond_lengths(x)),
+                float(viscosity), np.asarray(centre, float), float(body_radius),
+                float(body_aspect), e / np.linalg.norm(e), np.asarray(rb, float), big)
     return big
+
+
+def _blob_sizes(radius, n: int) -> np.ndarray:
+    """The blob size ε of each of the n segments (:data:`flagellum.hydro.sbt.EPS_PER_RADIUS`)."""
+    return sbt.EPS_PER_RADIUS * sbt._segment_radius(radius, n)
+
+
+@njit(cache=True)
+def _grand_into(x, eps, w, viscosity, centre, radius, aspect, axis, rb, big):
+    """:func:`grand_mobility` into ``big``: ``w`` the bead lengths, ``axis`` a unit vector,
+    ``rb`` the body's four resistances (:class:`~flagellum.hydro.body.BodyResistance`)."""
+    n1 = x.shape[0]
+    m = 3 * n1
+    sbt._mobility_into(x, eps, w, viscosity, -1.0, big[:m, :m])
+    r = np.empty((n1, 3))
+    for i in range(n1):
+        for a in range(3):
+            r[i, a] = x[i, a] - centre[a]
+    gt, gr = np.empty((n1, 3, 3)), np.empty((n1, 3, 3))
+    _body_flow_into(r, radius, viscosity, aspect, gt, gr)
+    for i in range(n1):
+        for a in range(3):
+            for b in range(3):
+                big[3 * i + a, m + b] = gt[i, a, b]
+                big[3 * i + a, m + 3 + b] = gr[i, a, b]
+                big[m + b, 3 * i + a] = gt[i, a, b]
+                big[m + 3 + b, 3 * i + a] = gr[i, a, b]
+    for a in range(3):
+        for b in range(3):
+            ee = axis[a] * axis[b]
+            one = 1.0 if a == b else 0.0
+            big[m + a, m + b] = ee / rb[0] + (one - ee) / rb[1]
+            big[m + 3 + a, m + 3 + b] = ee / rb[2] + (one - ee) / rb[3]
+            big[m + a, m + 3 + b] = 0.0
+            big[m + 3 + a, m + b] = 0.0
 
 
 def sphere_centre(x: np.ndarray, sphere_radius: float) -> np.ndarray:
@@ -156,45 +205,102 @@ def effective_mobility(x, radius, viscosity, anchor, sphere_radius=0.0) -> np.nd
     ``sphere_radius`` > 0) it translates with bead 0; on a load sphere (AXIAL) it does not
     turn (the paper's load sphere), a free swimmer's sphere turns freely (torque-free: its
     rotation from the filament's vorticity)."""
-    n1 = len(x)
+    x = sbt._check_positions(x)
+    out = np.empty((3 * len(x), 3 * len(x)))
+    _effective_into(x, _blob_sizes(radius, len(x) - 1), float(viscosity), anchor,
+                    float(sphere_radius), _sphere_resistance(sphere_radius, viscosity), out)
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def _sphere_resistance(sphere_radius, viscosity) -> np.ndarray:
+    """The four resistances of a load or body sphere (zeros without one; read-only, cached:
+    every build of ΔM asks)."""
+    from .body import body_resistance
+
+    out = np.zeros(4)
+    if sphere_radius > 0:
+        out[:] = body_resistance(sphere_radius, 1.0, viscosity)
+    out.flags.writeable = False
+    return out
+
+
+@njit(cache=True)
+def _effective_into(x, eps, viscosity, anchor, sphere_radius, rb, out):
+    """:func:`effective_mobility` into ``out``; ``rb`` the sphere's resistances."""
+    n1 = x.shape[0]
     m = 3 * n1
-    free = moving_components(anchor, n1)
+    w = sbt._bead_lengths(sbt._bond_lengths(x))
+    # constraints C u = 0, row r: coef[r, 0] u[idx[r, 0]] + coef[r, 1] u[idx[r, 1]]
+    # (idx −1: no second term)
+    idx = np.full((8, 2), -1, np.int64)
+    coef = np.zeros((8, 2))
+    k = 0
     if anchor != L.FIXED and sphere_radius > 0:
-        big = grand_mobility(x, radius, viscosity, sphere_centre(x, sphere_radius), sphere_radius)
-        # constraints C u = 0 on (U_0 … U_n, V, Ω): the sphere moves with bead 0 (V = U_0),
-        # bead 0's fixed components, and on a load sphere Ω = 0 (its reaction torque acts on
-        # the fluid); a free swimmer's sphere is torque-free (Ω unconstrained)
-        rows = [np.eye(3, m + 6, m) - np.eye(3, m + 6, 0)]
+        big = np.empty((m + 6, m + 6))
+        centre = np.array([x[0, 0], x[0, 1], x[0, 2] + sphere_radius])
+        _grand_into(x, eps, w, viscosity, centre, sphere_radius, 1.0,
+                    np.array([0.0, 0.0, 1.0]), rb, big)
+        # the sphere moves with bead 0 (V = U_0); on a load sphere (AXIAL) it does not turn
+        # (Ω = 0: its reaction torque acts on the fluid), a free swimmer's sphere is
+        # torque-free (Ω unconstrained)
+        for a in range(3):
+            idx[k, 0], coef[k, 0], idx[k, 1], coef[k, 1] = m + a, 1.0, a, -1.0
+            k += 1
         if anchor != L.FREE:
-            rows.append(np.eye(3, m + 6, m + 3))
-        fixed = np.flatnonzero(~free)
-        if len(fixed):
-            rows.append(np.eye(m + 6)[fixed])
-        return _constrained(big, np.vstack(rows), m, fixed)
-    M = sbt.mobility(x, radius, viscosity)
-    # no sphere: the constraints fix the first k components, and _constrained is the Schur
-    # complement M_ff − M_fc M_cc⁻¹ M_cf, here from the blocks directly
-    k = int(np.count_nonzero(~free))
+            for a in range(3):
+                idx[k, 0], coef[k, 0] = m + 3 + a, 1.0
+                k += 1
+    else:
+        big = np.empty((m, m))
+        sbt._mobility_into(x, eps, w, viscosity, -1.0, big)
+    # bead 0's fixed components
+    nfix = 3 if anchor == L.FIXED else (2 if anchor == L.AXIAL else 0)
+    for a in range(nfix):
+        idx[k, 0], coef[k, 0] = a, 1.0
+        k += 1
+    _constrained_into(big, m, idx[:k], coef[:k], out)
+
+
+@njit(cache=True)
+def _constrained_into(big, m, idx, coef, out):
+    """The first m rows and columns of the mobility ``big`` under the constraints C u = 0
+    (rows of at most two terms, ``idx`` and ``coef``), the constraint forces Cᵀλ acting on the
+    fluid: M − M Cᵀ (C M Cᵀ)⁻¹ C M, into ``out``. This is the resistance form
+    P (Pᵀ M⁻¹ P)⁻¹ Pᵀ for any P whose range is the null space of C (both vanish on Cᵀ and
+    reproduce P on M⁻¹P), in O(N²) instead of dense inverses; for a constraint that only
+    fixes components it is the Schur complement M_ff − M_fc M_cc⁻¹ M_cf. The bead components
+    that a constraint fixes alone get zero rows and columns."""
+    k = idx.shape[0]
+    out[:, :] = big[:m, :m]
     if k == 0:
-        return M
-    out = np.zeros((m, m))
-    out[k:, k:] = M[k:, k:] - M[k:, :k] @ np.linalg.solve(M[:k, :k], M[:k, k:])
-    return out
-
-
-def _constrained(big: np.ndarray, C: np.ndarray, m: int, fixed: np.ndarray) -> np.ndarray:
-    """The first m rows and columns of the mobility under the constraints C u = 0, the
-    constraint forces Cᵀλ acting on the fluid: M − M Cᵀ (C M Cᵀ)⁻¹ C M. This is the
-    resistance form P (Pᵀ M⁻¹ P)⁻¹ Pᵀ for any P whose range is the null space of C (both
-    vanish on Cᵀ and reproduce P on M⁻¹P), in O(N²) instead of dense inverses; for a
-    constraint that only fixes components it is the Schur complement M_ff − M_fc M_cc⁻¹ M_cf.
-    ``fixed``: the bead components C fixes, whose rows and columns are set to zero."""
-    mc = big[:m] @ C.T  # (m, k)
-    cm = C @ big[:, :m]  # (k, m)
-    out = big[:m, :m] - mc @ np.linalg.solve(C @ big @ C.T, cm)
-    out[fixed, :] = 0.0  # exactly zero (roundoff of the product otherwise)
-    out[:, fixed] = 0.0
-    return out
+        return
+    size = big.shape[0]
+    mc = np.zeros((size, k))  # M Cᵀ
+    cm = np.zeros((k, m))  # C M (bead columns)
+    for r in range(k):
+        for t in range(2):
+            j = idx[r, t]
+            if j < 0:
+                continue
+            c = coef[r, t]
+            for i in range(size):
+                mc[i, r] += c * big[i, j]
+            for i in range(m):
+                cm[r, i] += c * big[j, i]
+    cmc = np.zeros((k, k))
+    for r in range(k):
+        for t in range(2):
+            j = idx[r, t]
+            if j >= 0:
+                for q in range(k):
+                    cmc[r, q] += coef[r, t] * mc[j, q]
+    out -= np.dot(np.ascontiguousarray(mc[:m]), np.linalg.solve(cmc, cm))
+    for r in range(k):
+        j = idx[r, 0]
+        if idx[r, 1] < 0 and j < m:  # exactly zero (roundoff of the product otherwise)
+            out[j, :] = 0.0
+            out[:, j] = 0.0
 
 
 class CellBody(NamedTuple):
@@ -290,21 +396,48 @@ def rigid_fit(x_ref, x, anchor, axial=None):
     of x) — and the largest bead distance left, |x − x_0 − R(x_ref − x_ref,0)|: relative to
     bead 0, since the problem is invariant under its translation too where bead 0 moves (a
     free swimmer's body, a load sphere along z; ``FIXED``: also its own displacement)."""
-    a, b = x_ref - x_ref[0], x - x[0]
-    if anchor == L.AXIAL if axial is None else axial:
-        s = np.sum(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
-        c = np.sum(a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])
-        phi = math.atan2(s, c)
-        R = np.array([[math.cos(phi), -math.sin(phi), 0.0], [math.sin(phi), math.cos(phi), 0.0],
-                      [0.0, 0.0, 1.0]])
-    else:
-        u, _, vt = np.linalg.svd(b.T @ a)
-        d = np.sign(np.linalg.det(u @ vt))
-        R = u @ np.diag([1.0, 1.0, d]) @ vt
-    resid = np.max(np.abs(b - a @ R.T))
-    if anchor == L.FIXED:
-        resid = max(resid, float(np.max(np.abs(x[0] - x_ref[0]))))
+    about_z = anchor == L.AXIAL if axial is None else bool(axial)
+    R = np.empty((3, 3))
+    resid = _rigid_fit(np.ascontiguousarray(x_ref, dtype=float),
+                       np.ascontiguousarray(x, dtype=float), about_z, anchor == L.FIXED, R)
     return R, resid
+
+
+@njit(cache=True)
+def _rigid_fit(x_ref, x, about_z, fixed, R):
+    """:func:`rigid_fit` (compiled: it runs at every renewal of ΔM): R written, the residual
+    returned."""
+    n = x.shape[0]
+    a = np.empty((n, 3))
+    b = np.empty((n, 3))
+    for i in range(n):
+        for c in range(3):
+            a[i, c] = x_ref[i, c] - x_ref[0, c]
+            b[i, c] = x[i, c] - x[0, c]
+    if about_z:
+        s, c = 0.0, 0.0
+        for i in range(n):
+            s += a[i, 0] * b[i, 1] - a[i, 1] * b[i, 0]
+            c += a[i, 0] * b[i, 0] + a[i, 1] * b[i, 1]
+        phi = math.atan2(s, c)
+        R[:] = 0.0
+        R[0, 0], R[0, 1], R[1, 0], R[1, 1] = math.cos(phi), -math.sin(phi), math.sin(phi), math.cos(phi)
+        R[2, 2] = 1.0
+    else:
+        u, _, vt = np.linalg.svd(np.dot(b.T, a))
+        d = 1.0 if np.linalg.det(np.dot(u, vt)) >= 0.0 else -1.0
+        for i in range(3):
+            for j in range(3):
+                R[i, j] = u[i, 0] * vt[0, j] + u[i, 1] * vt[1, j] + d * u[i, 2] * vt[2, j]
+    resid = 0.0
+    for i in range(n):
+        for c in range(3):
+            v = b[i, c] - (a[i, 0] * R[c, 0] + a[i, 1] * R[c, 1] + a[i, 2] * R[c, 2])
+            resid = max(resid, abs(v))
+    if fixed:
+        for c in range(3):
+            resid = max(resid, abs(x[0, c] - x_ref[0, c]))
+    return resid
 
 
 #: the arc length [µm] of ΔM's near field in the stiff solvers' banded Newton matrix
@@ -355,6 +488,21 @@ def bond_change(dx: np.ndarray) -> float:
     return float(np.max(np.abs(np.diff(dx, axis=0))))
 
 
+@njit(cache=True)
+def limits_used(x, x_ref, n1, refresh, bond):
+    """max(largest |x − x_ref| / ``refresh``, largest bond change of the first n1 points over
+    ``bond``): the part of the renewal limits that the points x have used since x_ref (the
+    measure of :meth:`flagellum.rod.model.RodModel.mobility_use`)."""
+    move, turn = 0.0, 0.0
+    for i in range(x.shape[0]):
+        for c in range(3):
+            d = x[i, c] - x_ref[i, c]
+            move = max(move, abs(d))
+            if 0 < i < n1:
+                turn = max(turn, abs(d - (x[i - 1, c] - x_ref[i - 1, c])))
+    return max(move / refresh, turn / bond)
+
+
 def bonds_within(x: np.ndarray, x_ref: np.ndarray, limit: float) -> bool:
     """Whether no bond of the beads x has changed by more than ``limit`` (a length) against
     x_ref: |(x_{i+1} − x_i) − (x_ref,i+1 − x_ref,i)| ≤ limit."""
@@ -384,16 +532,38 @@ def _rotate_blocks(dm, R, out):
 
 
 def correction(x, h, gammas, anchor, zeta, radius, viscosity, sphere_radius=0.0,
-               symmetric=False) -> np.ndarray:
+               symmetric=False, out=None) -> np.ndarray:
     """ΔM = M_eff − M_loc at frozen bead positions x (:func:`effective_mobility`,
     :func:`local_mobility`); ``gammas`` (γ∥, γ⊥, γR) of the local drag. ``symmetric``: M_eff
     replaced by its symmetric part (M_eff + M_effᵀ)/2, the mobility of a thermal run (the
     collocation matrix is not exactly symmetric, and fluctuation–dissipation needs the noise
-    covariance 2kT M to be the symmetric mobility that also moves the filament)."""
-    me = effective_mobility(x, radius, viscosity, anchor, sphere_radius)
+    covariance 2kT M to be the symmetric mobility that also moves the filament). ``out``: a
+    3(n+1)-square array to write it into (the stepper's ΔM; no allocation of the result).
+
+    Compiled end to end (kernel, constraints, local part): the simulator renews ΔM every few
+    steps, and the numpy around the kernel was 40 % of a build (docs/hydrodynamics.md,
+    "Cost")."""
+    x = np.ascontiguousarray(x, dtype=float)
+    if out is None:
+        out = np.empty((3 * len(x), 3 * len(x)))
+    _correction_into(x, _blob_sizes(radius, len(x) - 1), h, gammas[0], gammas[1], anchor,
+                     zeta, float(viscosity), float(sphere_radius),
+                     _sphere_resistance(sphere_radius, viscosity), symmetric, out)
+    return out
+
+
+@njit(cache=True)
+def _correction_into(x, eps, h, gpar, gperp, anchor, zeta, viscosity, sphere_radius, rb,
+                     symmetric, out):
+    _effective_into(x, eps, viscosity, anchor, sphere_radius, rb, out)
     if symmetric:
-        me = 0.5 * (me + me.T)
-    return me - local_mobility(x, h, gammas[0], gammas[1], anchor, zeta)
+        m = out.shape[0]
+        for i in range(m):
+            for j in range(i + 1, m):
+                v = 0.5 * (out[i, j] + out[j, i])
+                out[i, j] = v
+                out[j, i] = v
+    _fill_local(_bond_tangents(x), x.shape[0] - 1, h, gpar, gperp, anchor, zeta, out, -1.0)
 
 
 def cell_correction(x, h, gammas, radius, viscosity, cell: CellBody, symmetric=False) -> np.ndarray:

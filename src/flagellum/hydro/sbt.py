@@ -81,14 +81,31 @@ def centreline_nodes(positions):
     return t, _bead_lengths(lengths)
 
 
+@njit(cache=True)
 def _bead_lengths(lengths: np.ndarray) -> np.ndarray:
     """The bead lengths (ℓ_{k−1} + ℓ_k)/2 (the ends: half their one bond) from the bonds'."""
-    return 0.5 * (np.r_[0.0, lengths] + np.r_[lengths, 0.0])
+    n = len(lengths)
+    w = np.zeros(n + 1)
+    for j in range(n):
+        w[j] += 0.5 * lengths[j]
+        w[j + 1] += 0.5 * lengths[j]
+    return w
+
+
+@njit(cache=True)
+def _bond_lengths(x: np.ndarray) -> np.ndarray:
+    n = x.shape[0] - 1
+    out = np.empty(n)
+    for j in range(n):
+        d0, d1, d2 = x[j + 1, 0] - x[j, 0], x[j + 1, 1] - x[j, 1], x[j + 1, 2] - x[j, 2]
+        out[j] = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    return out
 
 
 @njit(cache=True, error_model="numpy")  # no fastmath: the closed forms are checked to 1e-11
 def _segment_kernel(x, eps, cutoff, K):
-    """K[i, k] += ∫ S_ε(x_i − X(s)) φ_k(s) ds (3×3 blocks, without 1/8πη) over every segment j:
+    """K[3i + a, 3k + b] += ∫ S_ε(x_i − X(s))_ab φ_k(s) ds (3×3 blocks, without 1/8πη) over
+    every segment j:
     the hat function of its first bead (weight 1 − s/ℓ_j) goes to k = j, that of its second
     (s/ℓ_j) to k = j + 1. ``cutoff`` < 0: the whole filament; else only the part of each
     segment within that arc length of bead i.
@@ -108,6 +125,7 @@ def _segment_kernel(x, eps, cutoff, K):
         ell[j] = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
         e[j, 0], e[j, 1], e[j, 2] = d0 / ell[j], d1 / ell[j], d2 / ell[j]
         arc[j + 1] = arc[j] + ell[j]
+    inv_ell = 1.0 / ell
     p = np.empty(3)
     for i in range(n1):
         for j in range(n):
@@ -116,7 +134,6 @@ def _segment_kernel(x, eps, cutoff, K):
             p[0], p[1], p[2] = r0 - b * e[j, 0], r1 - b * e[j, 1], r2 - b * e[j, 2]
             eps2 = eps[j] * eps[j]
             c2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + eps2
-            c = math.sqrt(c2)
             lo, hi = 0.0, ell[j]
             if cutoff >= 0.0:  # the part of segment j within arc length `cutoff` of bead i
                 rel = arc[i] - arc[j]
@@ -124,15 +141,24 @@ def _segment_kernel(x, eps, cutoff, K):
                 hi = min(max(rel + cutoff, 0.0), ell[j])
             s0, s1 = lo - b, hi - b
             q0, q1 = math.sqrt(s0 * s0 + c2), math.sqrt(s1 * s1 + c2)
-            J0 = math.asinh(s1 / c) - math.asinh(s0 / c)
             J1 = (s1 - s0) * (s1 + s0) / (q1 + q0)  # ρ1 − ρ0
+            # J0 = asinh(s1/c) − asinh(s0/c), one logarithm and no cancellation: asinh(s/c)
+            # = ±ln((|s| + ρ)/c), so for ends on one side the ratio − 1 is (s1 − s0 ± J1)
+            # over the nearer end's |s| + ρ
+            if s0 >= 0.0:
+                J0 = math.log1p((s1 - s0 + J1) / (s0 + q0))
+            elif s1 <= 0.0:
+                J0 = math.log1p((s1 - s0 - J1) / (q1 - s1))
+            else:
+                J0 = math.log((s1 + q1) * (q0 - s0) / c2)
             # σ/(c²ρ) = sgn σ (1/c² − 1/(ρ(ρ + |σ|))): no cancellation when both ends lie on one side
+            iq0, iq1 = 1.0 / q0, 1.0 / q1
             g1, g0 = np.sign(s1), np.sign(s0)
-            K0 = (g1 - g0) / c2 - (g1 / (q1 * (q1 + abs(s1))) - g0 / (q0 * (q0 + abs(s0))))
-            K1 = J1 / (q0 * q1)
-            K2 = J0 - (s1 / q1 - s0 / q0)
+            K0 = (g1 - g0) / c2 - (g1 * iq1 / (q1 + abs(s1)) - g0 * iq0 / (q0 + abs(s0)))
+            K1 = J1 * iq0 * iq1
+            K2 = J0 - (s1 * iq1 - s0 * iq0)
             K3 = J1 - c2 * K1
-            inv = 1.0 / ell[j]
+            inv = inv_ell[j]
             for side in range(2):  # weight β0 + β1 σ of the first / second bead's hat function
                 if side == 0:
                     beta0, beta1, k = 1.0 - b * inv, -inv, j
@@ -141,13 +167,15 @@ def _segment_kernel(x, eps, cutoff, K):
                 m0, m1 = beta0 * K0 + beta1 * K1, beta0 * K1 + beta1 * K2
                 m2 = beta0 * K2 + beta1 * K3
                 iso = beta0 * J0 + beta1 * J1 + eps2 * m0
-                for a in range(3):
-                    for bb in range(3):
+                for a in range(3):  # the block is symmetric
+                    for bb in range(a, 3):
                         v = m0 * p[a] * p[bb] - m1 * (p[a] * e[j, bb] + e[j, a] * p[bb]) \
                             + m2 * e[j, a] * e[j, bb]
                         if a == bb:
-                            v += iso
-                        K[i, k, a, bb] += v
+                            K[3 * i + a, 3 * k + a] += v + iso
+                        else:
+                            K[3 * i + a, 3 * k + bb] += v
+                            K[3 * i + bb, 3 * k + a] += v
 
 
 def mobility(positions, radius, viscosity, weights=None, cutoff=None) -> np.ndarray:
@@ -174,12 +202,24 @@ def mobility(positions, radius, viscosity, weights=None, cutoff=None) -> np.ndar
         w = np.asarray(weights, float)
         if w.shape != (n + 1,) or np.any(~(w > 0)):
             raise ParameterError("weights", f"shape {w.shape}", "n+1 lengths > 0")
-    M = np.zeros((3 * (n + 1), 3 * (n + 1)))
-    # the kernel's blocks K[i, k] written straight into rows 3i…, columns 3k… of M
-    _segment_kernel(x, eps, -1.0 if cutoff is None else float(cutoff),
-                    M.reshape(n + 1, 3, n + 1, 3).transpose(0, 2, 1, 3))
-    M /= np.repeat((8 * math.pi * viscosity) * w, 3)[None, :]
+    M = np.empty((3 * (n + 1), 3 * (n + 1)))
+    _mobility_into(x, eps, w, float(viscosity), -1.0 if cutoff is None else float(cutoff), M)
     return M
+
+
+@njit(cache=True)
+def _mobility_into(x, eps, w, viscosity, cutoff, M):
+    """:func:`mobility` into M (3(n+1) square) without the checks: the kernel's integrals per
+    unit line density, each column k divided by 8πη w_k."""
+    M[:] = 0.0
+    _segment_kernel(x, eps, cutoff, M)
+    m = M.shape[0]
+    s = np.empty(m)
+    for c in range(m):
+        s[c] = 1.0 / (8.0 * math.pi * viscosity * w[c // 3])
+    for r in range(m):
+        for c in range(m):
+            M[r, c] *= s[c]
 
 
 def rigid_motion_matrix(positions, origin=(0.0, 0.0, 0.0)) -> np.ndarray:

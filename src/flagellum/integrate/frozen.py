@@ -77,6 +77,26 @@ def secant_mobility(y, dm, base, G, xu, rp):
     rp[R_W] = w
 
 
+@njit(cache=True)
+def _start_secant(dm, sample, current, base, G, carry):
+    """One pass over the renewed ΔM S_k+1 (in ``dm``) and the last one S_k (``sample``): the
+    new model's slope G = S_k+1 − S_k, and with ``carry`` − (C − S_k+1), its base C
+    (``current``) or S_k+1, written to ``base`` and ``dm``; ``sample`` becomes S_k+1."""
+    m = dm.shape[0]
+    for i in range(m):
+        for j in range(m):
+            s_new = dm[i, j]
+            g = s_new - sample[i, j]
+            b = s_new
+            if carry:
+                b = current[i, j]
+                g -= b - s_new
+            G[i, j] = g
+            sample[i, j] = s_new
+            base[i, j] = b
+            dm[i, j] = b
+
+
 #: the first planned interval after a (re)start where the bond limit can bind, as a fraction
 #: of the one the current speeds give
 FIRST_SUB_FRACTION = 1 / 32
@@ -97,6 +117,9 @@ class FrozenMobility:
         nb = model.n + 1 if self.active else 0
         self.arrays = (np.zeros((size, size)), np.zeros((size, size)), np.zeros((2, 3 * nb)),
                        np.zeros(2))
+        #: the ΔM renewed last (turns and comparisons start from it), and the old model's
+        #: value at a renewal (work arrays of :meth:`renew`)
+        self._sample, self._current = np.zeros((size, size)), np.zeros((size, size))
         self.reset(0.0)
 
     def reset(self, t0: float) -> None:
@@ -105,7 +128,6 @@ class FrozenMobility:
         self.arrays[3][:] = (0.0, np.nan)
         self.last = float(t0)  #: the time of the last renewal
         self.plan = 0.0  #: the planned interval to the next one (0: plan from the speeds)
-        self._sample = None  #: the ΔM renewed last (turns and comparisons start from it)
 
     def apply(self, y: np.ndarray) -> None:
         """Set the kernel's ΔM to the secant model's value at y."""
@@ -127,27 +149,21 @@ class FrozenMobility:
         carry = False
         if rp[R_ACTIVE]:
             rp[R_W] = np.nan
-            secant_mobility(y, dm, *self.arrays)
-            current = dm.copy()  # C
+            secant_mobility(y, self._current, *self.arrays)  # C
             carry = CONTINUE_W[0] <= rp[R_W] <= CONTINUE_W[1]
             # the model compares with, and turns, the ΔM it renewed last (its frozen beads
             # are that renewal's), not the secant's value at some state
             dm[:] = self._sample
-        if m.frozen_beads is None:  # nothing built yet
-            m.refresh_mobility(y, force=True)
-        prev, x_prev = dm.copy(), m.frozen_beads.ravel().copy()
+        else:  # (re)started: the ΔM built last as it is
+            if m.frozen_beads is None:  # nothing built yet
+                m.refresh_mobility(y, force=True)
+            self._sample[:] = dm
+        x_prev = m.frozen_beads.ravel().copy()
         m.refresh_mobility(y, due=True)
-        self._sample = dm.copy()
         x_new = m.frozen_beads.ravel()
         d = x_new - x_prev
         dd = float(d @ d)
-        np.subtract(dm, prev, out=G)  # S_k+1 − S_k
-        if carry:
-            G -= current - dm
-            base[:] = current
-            dm[:] = current
-        else:
-            base[:] = dm
+        _start_secant(dm, self._sample, self._current, base, G, carry)
         xu[0] = x_new
         xu[1] = d / dd if dd > 0.0 else 0.0
         rp[:] = (1.0, 0.0)  # dm holds the model's value at w = 0

@@ -17,7 +17,7 @@ from ..helix import DiscreteHelix, discrete_helix
 from ..hydro import body as body_model
 from ..hydro.dynamics import (CellBody, bonds_within, cell_correction, cell_local_mobility,
                               correction, local_mobility, moving_components, near_beads,
-                              rigid_fit, rotate_correction, turn_limit, bond_change)
+                              rigid_fit, rotate_correction, turn_limit, limits_used)
 from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
 from ..params import EndLoad, Params
@@ -371,15 +371,16 @@ class RodModel:
             # a rigid rotation of the frozen beads (about bead 0): turn ΔM instead of rebuilding
             # (a free swimmer's sphere sits at x_0 + a e_z: about e_z only)
             b = self.boundary
+            within = self.hydrodynamics.refresh * (DUE_TURN_RESIDUAL if due else 1.0)
             rot, resid = rigid_fit(self._frozen, x, _ANCHOR[b.anchor],
                                    axial=(b.anchor != "fixed" and bool(b.sphere_radius)) or None)
-            turned = x[0] + (self._frozen - self._frozen[0]) @ rot.T
-            within = self.hydrodynamics.refresh * (DUE_TURN_RESIDUAL if due else 1.0)
-            if resid <= within and bonds_within(x[:n1], turned[:n1], bond):
-                self._ws[-1][:] = rotate_correction(self._ws[-1], rot)
-                self._frozen = turned
-                return True
-        self._ws[-1][:] = self._correction(x)
+            if resid <= within:
+                turned = x[0] + (self._frozen - self._frozen[0]) @ rot.T
+                if bonds_within(x[:n1], turned[:n1], bond):
+                    self._ws[-1][:] = rotate_correction(self._ws[-1], rot)
+                    self._frozen = turned
+                    return True
+        self._correction(x, out=self._ws[-1])
         self._frozen = x.copy()
         return True
 
@@ -396,10 +397,8 @@ class RodModel:
         whichever is larger (0 for the local model or before the first build)."""
         if not self._nonlocal or self._frozen is None:
             return 0.0
-        x = self._mobility_points(y)
-        d = x - self._frozen
-        bond = bond_change(d[:self.n + 1]) / (self.turn_limit * self.h)
-        return max(float(np.max(np.abs(d))) / self.hydrodynamics.refresh, bond)
+        return limits_used(np.ascontiguousarray(self._mobility_points(y)), self._frozen,
+                           self.n + 1, self.hydrodynamics.refresh, self.turn_limit * self.h)
 
     def correction_at(self, y: np.ndarray) -> np.ndarray:
         """ΔM built at state y (returned, the frozen one left as it is; with
@@ -424,14 +423,19 @@ class RodModel:
         return (local_mobility(x, h, gpar, gperp, anchor, zeta) + self._ws[-1],
                 moving_components(anchor, len(x)))
 
-    def _correction(self, x: np.ndarray) -> np.ndarray:
-        """ΔM at the mobility points x (:meth:`_mobility_points`)."""
+    def _correction(self, x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """ΔM at the mobility points x (:meth:`_mobility_points`), into ``out`` if given."""
         if self.cell:
             fluid = self.params.fluid
-            return cell_correction(x[:self.n + 1], self.h, self.gammas, fluid.filament_radius,
-                                   fluid.viscosity, self._cell_body(x),
-                                   symmetric=self.symmetric_mobility)
-        return correction(x, *self.mobility_arguments(), symmetric=self.symmetric_mobility)
+            dm = cell_correction(x[:self.n + 1], self.h, self.gammas, fluid.filament_radius,
+                                 fluid.viscosity, self._cell_body(x),
+                                 symmetric=self.symmetric_mobility)
+            if out is None:
+                return dm
+            out[:] = dm
+            return out
+        return correction(x, *self.mobility_arguments(), symmetric=self.symmetric_mobility,
+                          out=out)
 
     @property
     def turn_limit(self) -> float:

@@ -170,7 +170,7 @@ def _hook_rows(prm, iprm, y, GT, GTH, ref_u, ref_e, zh):
 
 
 def test_uncovered_models_fall_back_to_the_coloured_differences():
-    """An end load, a nonlocal mobility or generalized forces (the Itô drift) are not covered:
+    """An end load or generalized forces (the Itô drift) are not covered:
     :func:`~flagellum.rod.jacobian.model_jacobian` returns the coloured Jacobian bit for bit and
     its cost of one right-hand side per colour; covered models cost one."""
     from flagellum.hydro.options import Hydrodynamics
@@ -179,9 +179,10 @@ def test_uncovered_models_fall_back_to_the_coloured_differences():
     base = RodModel(Params(Filament(segment_length=0.5)), Motor(1.0))
     assert RJ.covered(base.iprm, base.prm)
     models = [RodModel(Params(Filament(segment_length=0.5)), Motor(1.0),
-                       end_load=EndLoad(force=2.0)),
-              RodModel(Params(Filament(segment_length=0.5)), Motor(1.0),
-                       hydrodynamics=Hydrodynamics(model="sbt"))]
+                       end_load=EndLoad(force=2.0))]
+    assert RJ.covered(*(lambda m: (m.iprm, m.prm))(
+        RodModel(Params(Filament(segment_length=0.5)), Motor(1.0),
+                 hydrodynamics=Hydrodynamics(model="sbt"))))
     gen = RodModel(Params(Filament(segment_length=0.5)), Motor(1.0))
     gen.iprm[K.I_GEN] = 1
     models.append(gen)
@@ -234,3 +235,40 @@ def test_bdf_run_with_either_jacobian_gives_the_same_motion(monkeypatch):
     (ya, sa), (yc, sc) = out["chain"], out["colored"]
     assert np.abs(ya - yc).max() <= 5e-5 * 2.0
     assert abs(sa["steps"] - sc["steps"]) <= 0.1 * sc["steps"]
+
+
+SBT_CASES = [c for c in CASES if c[0] in ("anchored", "load sphere", "free swimmer", "elastic hook")]
+
+
+@pytest.mark.parametrize("name,boundary,motor", SBT_CASES, ids=[c[0] for c in SBT_CASES])
+def test_chain_jacobian_of_the_frozen_nonlocal_mobility(name, boundary, motor):
+    """With a frozen nonlocal ΔM the chain rule differentiates the banded operator (local drag
+    plus ΔM's blocks between beads at most ``I_NEAR`` apart), the operator the coloured
+    differences perturb: against a dense central difference of that operator's right-hand
+    side, N = 25, ΔM built at a state other than the one differentiated (as between
+    renewals)."""
+    from flagellum.hydro.options import Hydrodynamics
+
+    rng = np.random.default_rng(7)
+    m = RodModel(Params(Filament(segment_length=0.4)), motor, Boundary(**boundary),
+                 hydrodynamics=Hydrodynamics(model="sbt"))
+    m.prm[K.P_OMEGA] = 800.0
+    assert RJ.covered(m.iprm, m.prm) and m.iprm[K.I_NEAR] >= 1
+    m.refresh_mobility(_state(m, rng), force=True)
+    y = _state(m, rng)
+    banded = m.iprm.copy()
+    banded[K.I_HYDRO] = K.HYDRO_BANDED
+    args = list(_args(m))
+    args[1] = banded
+    Jd = _central(y, tuple(args))
+    kl, ku = m.jacobian_band
+    Ja = _dense(_chain(m, y), kl, ku)
+    # the band holds the whole banded operator's Jacobian
+    i, j = np.indices(Jd.shape)
+    assert np.abs(Jd[(i - j > kl) | (j - i > ku)]).max() <= 1e-9 * np.abs(Jd).max()
+    assert _close(Ja, Jd, 1e-6).all()
+    # ΔM's near field is in it: the local model's Jacobian at the same state differs
+    loc = m.iprm.copy()
+    loc[K.I_HYDRO] = K.HYDRO_LOCAL
+    args[1] = loc
+    assert not _close(_central(y, tuple(args)), Jd, 1e-3).all()

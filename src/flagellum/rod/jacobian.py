@@ -19,10 +19,15 @@ tangent and of the hook balance in its 7 inputs. Every difference is of a functi
 numbers, so its step suits that function alone (the coloured Jacobian's steps are shared by
 whole groups of columns).
 
-Covered (:func:`covered`): the local drag (``HYDRO_LOCAL``), forces as physical forces
-(``I_GEN = 0``), no end load, no cell body, no per-joint shape, elastic scale ≠ 0 — every
-anchor, hook and drive of :func:`rod_rhs`. :func:`model_jacobian` falls back to the
-coloured finite differences otherwise.
+A frozen nonlocal mobility (``HYDRO_FROZEN``) adds ΔM's near field: the Jacobian is that of
+the banded operator (local drag plus ΔM's blocks between beads at most ``I_NEAR`` apart, the
+Newton matrix of docs/hydrodynamics.md), each bead's velocity window widened by those beads'
+force derivatives times the frozen blocks.
+
+Covered (:func:`covered`): forces as physical forces (``I_GEN = 0``), no end load, no cell
+body, no per-joint shape, elastic scale ≠ 0 — every anchor, hook, drive and hydrodynamic
+model of :func:`rod_rhs`. :func:`model_jacobian` falls back to the coloured finite
+differences otherwise.
 """
 
 from __future__ import annotations
@@ -50,8 +55,7 @@ def covered(iprm, prm) -> bool:
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def _covered(iprm, prm):
     return (iprm[K.I_ANCHOR] != K.ANCHOR_CELL and iprm[K.I_SEGMENTS] == 0
-            and iprm[K.I_EXTRA] == 0 and iprm[K.I_GEN] == 0
-            and iprm[K.I_HYDRO] == K.HYDRO_LOCAL and prm[K.P_ELASTIC] != 0.0)
+            and iprm[K.I_EXTRA] == 0 and iprm[K.I_GEN] == 0 and prm[K.P_ELASTIC] != 0.0)
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
@@ -139,7 +143,15 @@ def rod_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, 
     om = prm[K.P_OMEGA]
     el = prm[K.P_ELASTIC]
     anchor, zeta = iprm[K.I_ANCHOR], prm[K.P_SPHERE]
-    K.rod_rhs(y, f_work, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws)
+    # a frozen nonlocal ΔM: the Jacobian of the banded operator (its blocks between beads at
+    # most nb apart), as the coloured differences take it
+    nb = 0
+    ip = iprm
+    if iprm[K.I_HYDRO] != K.HYDRO_LOCAL:
+        nb = min(iprm[K.I_NEAR], n)
+        ip = iprm.copy()
+        ip[K.I_HYDRO] = K.HYDRO_BANDED
+    K.rod_rhs(y, f_work, prm, ip, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws)
     T, E1, E2, LEN, S, GT, GTH, DR, V, A1, CW, DM = ws
     ab[:, :] = 0.0
     # joints: d(G_t, G_Θ of frames k) over frames k−1 … k+1 (4 values each)
@@ -297,16 +309,35 @@ def rod_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, 
                 dV[i, 0, 4 * sl + c] += v0 / (2.0 * st)
                 dV[i, 1, 4 * sl + c] += v1 / (2.0 * st)
                 dV[i, 2, 4 * sl + c] += v2 / (2.0 * st)
+    # ΔM's near field: V_i += Σ_k ΔM_ik (−DR_k) over |k − i| ≤ nb, so each bead's window
+    # widens by nb frames on either side (frames i − 1 − nb … i + 2 + nb)
+    if nb > 0:
+        wide = np.zeros((n1, 3, 4 * (4 + 2 * nb)))
+        for i in range(n1):
+            for r in range(3):
+                for qq in range(16):
+                    wide[i, r, 4 * nb + qq] = dV[i, r, qq]
+            for k in range(max(0, i - nb), min(n, i + nb) + 1):
+                off = 4 * (k - i + nb)  # bead k's window starts at frame k − 1
+                for r in range(3):
+                    for c in range(3):
+                        d = DM[3 * i + r, 3 * k + c]
+                        if d != 0.0:
+                            for qq in range(16):
+                                wide[i, r, off + qq] -= d * dDR[k, c, qq]
+        dV = wide
+    wv = dV.shape[2]
     # positions in the rotating frame: ẏ_i = V_i + Ω (y_i, −x_i, 0)
     for i in range(n1):
         o = 3 + 4 * i
         for k in range(3):
-            _scatter(ab, kv, kl, ku, scale, o + k, dV[i, k], i - 1, n)
+            _scatter(ab, kv, kl, ku, scale, o + k, dV[i, k], i - 1 - nb, n)
         _put(ab, kv, kl, ku, scale, o, o + 1, om)
         _put(ab, kv, kl, ku, scale, o + 1, o, -om)
     # bond spins: θ̇_i = −G_Θ,i/(γR h) − Ω t_z − s·Δ/ℓ, Δ = ẏ_i − ẏ_{i−1}; over frames i−2 … i+2
     zs = L.spin_friction(h, grot)
-    q = np.zeros(20)
+    q = np.zeros(wv + 4)  # frames i − 2 − nb … i + 2 + nb
+    sh = 4 * nb
     for i in range(1, n1):
         o, p = 3 + 4 * i, 3 + 4 * (i - 1)
         q[:] = 0.0
@@ -316,9 +347,9 @@ def rod_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, 
         dl = (f_work[o] - f_work[p], f_work[o + 1] - f_work[p + 1], f_work[o + 2] - f_work[p + 2])
         sd = sv[0] * dl[0] + sv[1] * dl[1] + sv[2] * dl[2]
         for c in range(12):
-            q[4 + c] -= dGTH[i, c] / zs
+            q[sh + 4 + c] -= dGTH[i, c] / zs
         for k in range(3):
-            for c in range(16):
+            for c in range(wv):
                 q[4 + c] -= sv[k] * dV[i, k, c] / ln
                 q[c] += sv[k] * dV[i - 1, k, c] / ln
         # t, s and ℓ of frame i (slot 2): dt = P dd/ℓ, ds = −(u × dt)/D + c (u·dt)/D²
@@ -337,8 +368,8 @@ def rod_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, 
                 if r == 2:
                     coef -= om  # −Ω dt_z
                 acc += coef * P_rc / ln
-            q[8 + c] += acc + sd / (ln * ln) * t[c]
-        _scatter(ab, kv, kl, ku, scale, o + 3, q, i - 2, n)
+            q[sh + 8 + c] += acc + sd / (ln * ln) * t[c]
+        _scatter(ab, kv, kl, ku, scale, o + 3, q, i - 2 - nb, n)
         # Δ's rotating-frame part Ω (δy_i − δy_{i−1}, −(δx_i − δx_{i−1}), 0)
         for bead, sg in ((i, 1.0), (i - 1, -1.0)):
             c0 = 3 + 4 * bead

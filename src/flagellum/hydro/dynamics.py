@@ -192,10 +192,11 @@ def _grand_into(x, eps, w, viscosity, centre, radius, aspect, axis, rb, big):
             big[m + 3 + a, m + b] = 0.0
 
 
+@njit(cache=True)
 def sphere_centre(x: np.ndarray, sphere_radius: float) -> np.ndarray:
     """Centre of a load sphere or a free swimmer's sphere: x_0 + a e_z (the filament leaves its
     rear pole along −e_z)."""
-    return np.asarray(x[0], float) + np.array([0.0, 0.0, sphere_radius])
+    return np.array([x[0, 0], x[0, 1], x[0, 2] + sphere_radius])
 
 
 def effective_mobility(x, radius, viscosity, anchor, sphere_radius=0.0) -> np.ndarray:
@@ -238,8 +239,7 @@ def _effective_into(x, eps, viscosity, anchor, sphere_radius, rb, out):
     k = 0
     if anchor != L.FIXED and sphere_radius > 0:
         big = np.empty((m + 6, m + 6))
-        centre = np.array([x[0, 0], x[0, 1], x[0, 2] + sphere_radius])
-        _grand_into(x, eps, w, viscosity, centre, sphere_radius, 1.0,
+        _grand_into(x, eps, w, viscosity, sphere_centre(x, sphere_radius), sphere_radius, 1.0,
                     np.array([0.0, 0.0, 1.0]), rb, big)
         # the sphere moves with bead 0 (V = U_0); on a load sphere (AXIAL) it does not turn
         # (Ω = 0: its reaction torque acts on the fluid), a free swimmer's sphere is
@@ -254,9 +254,7 @@ def _effective_into(x, eps, viscosity, anchor, sphere_radius, rb, out):
     else:
         big = np.empty((m, m))
         sbt._mobility_into(x, eps, w, viscosity, -1.0, big)
-    # bead 0's fixed components
-    nfix = 3 if anchor == L.FIXED else (2 if anchor == L.AXIAL else 0)
-    for a in range(nfix):
+    for a in range(fixed_components(anchor)):  # bead 0's
         idx[k, 0], coef[k, 0] = a, 1.0
         k += 1
     _constrained_into(big, m, idx[:k], coef[:k], out)
@@ -581,11 +579,14 @@ def moving_components(anchor, n1: int) -> np.ndarray:
     ``FIXED``, z only on a load sphere ``AXIAL``, all for ``FREE``); the mobility's rows and
     columns of the others are zero."""
     free = np.ones(3 * n1, bool)
-    if anchor == L.FIXED:
-        free[:3] = False
-    elif anchor == L.AXIAL:
-        free[:2] = False
+    free[:fixed_components(anchor)] = False
     return free
+
+
+@njit(cache=True)
+def fixed_components(anchor) -> int:
+    """How many of bead 0's velocity components (x, y, z in that order) the anchor fixes."""
+    return 3 if anchor == L.FIXED else (2 if anchor == L.AXIAL else 0)
 
 
 __all__ = ["CellBody", "Hydrodynamics", "MODELS", "REFRESH", "body_flow", "cell_correction",

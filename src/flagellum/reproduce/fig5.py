@@ -190,10 +190,12 @@ def plot(ana, theory, crit0, quality, out_dir: Path, sims=()):
 
 def compute(quality: str, cache: Cache | None = None) -> Fig5Data:
     """M_c1, F_c1 by linear stability at each 1/a of the quality (shared with Fig. 7 through
-    ``cache``), the rod theory on :func:`theory_inv_a` and the check runs."""
+    ``cache``), the rod theory on :func:`theory_inv_a` (its friction that of the cache's
+    mobility) and the check runs."""
     cache = Cache() if cache is None else cache
     points = list(cache.load_sphere_thresholds(quality, INV_A[quality]).points)
-    theory = {rc: rod_theory_curve(theory_inv_a(quality), rc) for rc in (False, True)}
+    theory = {rc: rod_theory_curve(theory_inv_a(quality), rc, cache.hydrodynamics)
+              for rc in (False, True)}
     return Fig5Data(tuple(points), theory, tuple(confirmations(points, quality, cache.hydrodynamics)))
 
 

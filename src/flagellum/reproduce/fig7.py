@@ -28,7 +28,7 @@ from .._plot import pyplot
 from ..io import write_csv
 from ..paper import PAPER
 from .common import UNITS, Comparison, Timer, save_figure, write_h5
-from .shared import Cache, LoadSphereThresholds, rod_theory_curve
+from .shared import Cache, LoadSphereThresholds
 
 if TYPE_CHECKING:
     from ..theory.manifold import ManifoldResult
@@ -147,17 +147,20 @@ def plot(res, dots, quality, out_dir: Path):
 
 
 def compute(quality: str, cache: Cache | None = None) -> Fig7Data:
-    """The manifold on the quality's grid and the red dots (those of Fig. 5 from ``cache``)."""
+    """The manifold on the quality's grid (the rod's friction that of the cache's mobility) and
+    the red dots (those of Fig. 5 from ``cache``)."""
     from ..theory.manifold import compute_manifold
 
     timer = Timer()
-    res = compute_manifold(**GRIDS[quality])
+    res = compute_manifold(**GRIDS[quality], hydrodynamics=getattr(cache, "hydrodynamics", None))
     seconds = timer.seconds
     return Fig7Data(res, tuple(red_dots(quality, cache)), seconds)
 
 
 def analyse(data: Fig7Data) -> dict:
     """Anchored thresholds, shoulder, collapse torques and the theory–filament agreement."""
+    from ..theory.manifold import load_sphere_curve
+
     res, dots = data.result, data.dots
     rod = res.rod
     summ = res.summary()
@@ -167,7 +170,7 @@ def analyse(data: Fig7Data) -> dict:
     agree = math.nan
     low = [p for p in dots if p["M_c1"] / rod.torque_scale < 10]
     if low:
-        th = rod_theory_curve([p["inv_a"] for p in low], radius_correction=True)
+        th = load_sphere_curve(rod, [p["inv_a"] for p in low], radius_correction=True).table()
         rel = [abs(f - p["F_c1"]) / p["F_c1"] for f, p in zip(th["F"], low) if math.isfinite(f)]
         agree = max(rel) if rel else math.nan
     return {"anchored": summ["without_radius_correction"]["anchored"],

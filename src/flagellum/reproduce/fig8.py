@@ -32,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from .._plot import pyplot
+from ..hydro.options import Hydrodynamics
 from ..io import write_csv
 from ..paper import MONOTRICHOUS_HELIX, NORMAL_HELIX, PAPER
 from .common import UNITS, Comparison, Timer, pmap, save_figure, write_h5
@@ -87,10 +88,11 @@ def variant_params(v):
                      segment_length=length / N_SEGMENTS)
 
 
-def scales(params) -> dict:
+def scales(params, hydrodynamics=None) -> dict:
+    """The rod's scales of the variant ``params`` (its friction that of ``hydrodynamics``)."""
     from ..theory.manifold import HelicalRod
 
-    rod = HelicalRod.from_params(params)
+    rod = HelicalRod.from_params(params, hydrodynamics)
     A = params.filament.bend_rigidity
     return {"L0": rod.L0, "A_eff": rod.A_eff, "A_perp": rod.a_perp * rod.L0,
             "turns": params.filament.length / turn_length(params.filament.kappa0, params.filament.tau0),
@@ -101,8 +103,6 @@ def scales(params) -> dict:
 def _job(job: dict) -> dict:
     from ..analysis.stability import critical_torque, linear_stability, stability_curve
     from ..theory.manifold import HelicalRod
-
-    from ..hydro.options import Hydrodynamics
 
     hyd = Hydrodynamics.from_dict(job.get("hydrodynamics"))
     if job["kind"] == "curve":  # the points share variant and mobility
@@ -121,7 +121,8 @@ def _job(job: dict) -> dict:
             r = linear_stability(params, job["torque"], hydrodynamics=hyd)
             return {**job, "lambda": r.lambda_, "frequency": r.frequency}
         if job["kind"] == "theory":
-            return {**job, "lambda": HelicalRod.from_params(params).reorientation_rate(job["m_hat"])}
+            rod = HelicalRod.from_params(params, hyd)
+            return {**job, "lambda": rod.reorientation_rate(job["m_hat"])}
         g = job["guess"]
         # the guess is the local theory's; the nonlocal mobility raises M_c1 by ≈ 1.5
         # (docs/hydrodynamics.md), so its bracket reaches further up
@@ -186,14 +187,15 @@ class Fig8Data:
 def compute(quality: str, cache=None) -> Fig8Data:
     """λ(m̂) and M_c1 of every variant and the turn scan by linear stability, in one process
     pool (nothing else shared: of ``cache`` only its ``hydrodynamics``, the mobility of the
-    stability analyses; the effective-rod theory stays local)."""
+    stability analyses and the friction of the effective rod, whose scales normalise λ)."""
     from ..theory.manifold import HelicalRod
 
-    hyd = getattr(cache, "hydrodynamics", None)
-    hyd = None if hyd is None or hyd.is_local else hyd.to_dict()
+    mobility = getattr(cache, "hydrodynamics", None)
+    mobility = None if mobility is None or mobility.is_local else mobility
+    hyd = None if mobility is None else mobility.to_dict()
 
     variants = VARIANTS[quality]
-    sc = {v[0]: scales(variant_params(v)) for v in variants}
+    sc = {v[0]: scales(variant_params(v), mobility) for v in variants}
     # the λ of one variant (or one length of the turn scan) come from one continuation
     # branch (a "curve" job), each λ as its own "lambda" result
     jobs = []
@@ -207,7 +209,7 @@ def compute(quality: str, cache=None) -> Fig8Data:
     for geom in (NORMAL, MONO):
         for turns in TURNS[quality]:
             v = _turn_variant(geom, turns)
-            torque = scales(variant_params(v))["torque"]
+            torque = scales(variant_params(v), mobility)["torque"]
             jobs.append({"kind": "curve", "cost": 0.5, "points": [
                 {"kind": "lambda", "variant": v, "m_hat": mh, "torque": mh * torque, "turn_scan": True}
                 for mh in M_HAT_TURNS]})
@@ -218,7 +220,7 @@ def compute(quality: str, cache=None) -> Fig8Data:
     res = [r for out in pmap(_job, jobs) for r in (out if isinstance(out, list) else [out])]
     # effective-rod prediction on panel (b): the normal helix' rod (depends on geometry only
     # through f̂∥/m̂, 8.7 normal vs 9.9 monotrichous)
-    rod = HelicalRod.from_params(variant_params(variants[0]))
+    rod = HelicalRod.from_params(variant_params(variants[0]), mobility)
     mh_t = np.linspace(min(M_HAT[quality]), -0.25, 25)
     rod_line = (mh_t, np.array([rod.reorientation_rate(m) / rod.master_rate_scale for m in mh_t]))
     return Fig8Data(quality, variants, sc, tuple(res), rod_line)
@@ -255,7 +257,7 @@ def analyse(data: Fig8Data) -> dict:
     by = {}
     for r in (r for r in scan if r["kind"] == "lambda"):
         v = r["variant"]
-        s = scales(variant_params(v))
+        s = scales(variant_params(v), Hydrodynamics.from_dict(r.get("hydrodynamics")))
         th = next(x for x in scan if x["kind"] == "theory" and x["variant"] == v and x["m_hat"] == r["m_hat"])
         geom = "normal" if (v[1], v[2]) == NORMAL else "monotrichous"
         turns = round(s["turns"], 6)

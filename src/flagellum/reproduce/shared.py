@@ -96,12 +96,14 @@ class AnchoredThreshold:
 
 # -- load spheres: Fig. 5 and Fig. 7 ----------------------------------------------------------
 
-def rod_theory_curve(inv_a, radius_correction: bool = False) -> dict:
+def rod_theory_curve(inv_a, radius_correction: bool = False, hydrodynamics=None) -> dict:
     """The rod theory's critical points on the load-sphere rays 1/a (the table of
-    :meth:`~flagellum.theory.manifold.CriticalCurve.table`; ``parameter`` is 1/a)."""
+    :meth:`~flagellum.theory.manifold.CriticalCurve.table`; ``parameter`` is 1/a), the rod's
+    friction that of ``hydrodynamics`` (:meth:`~flagellum.theory.manifold.HelicalRod.from_params`:
+    local RFT's full-turn coefficients, or the rigid helix' nonlocal resistance)."""
     from ..theory.manifold import HelicalRod, load_sphere_curve
 
-    rod = HelicalRod.from_params()
+    rod = HelicalRod.from_params(hydrodynamics=hydrodynamics)
     return load_sphere_curve(rod, list(inv_a), radius_correction=radius_correction).table()
 
 
@@ -149,7 +151,7 @@ class LoadSphereThresholds:
         """Seeded by :func:`rod_theory_curve`; where the theory has no point the guess is
         1 + 1/a with ``fallback_guess`` (else NaN: that 1/a reports an error)."""
         inv = tuple(float(v) for v in inv_a)
-        guess = rod_theory_curve(inv)["M"]
+        guess = rod_theory_curve(inv, hydrodynamics=hydrodynamics)["M"]
         jobs = []
         for v, g in zip(inv, guess):
             ok = math.isfinite(g) or not fallback_guess

@@ -648,8 +648,7 @@ class BdfStepper:
         if not self._frozen.active:
             return self._advance(t)
         # the compiled steps are not stopped at the sub-targets: it interpolates, as CVODE
-        self._frozen.advance(self.t, self.y, t,
-                             lambda tn: (True, self._advance(tn), None, float(self._st[S_T])))
+        self._frozen.advance(self.t, self.y, t, lambda tn: (True, self._advance(tn), None))
         return self.y
 
     def _advance(self, t: float) -> np.ndarray:

@@ -251,8 +251,7 @@ class CvodeStepper:
 
     def _step_to(self, t: float):
         res = self._solver.step(t)
-        # (CVODE's own time: the latest right-hand side it asked for, ≥ t as it interpolates)
-        return res.success and bool(np.all(np.isfinite(res.y))), res.y, res, self._t_max
+        return res.success and bool(np.all(np.isfinite(res.y))), res.y, res
 
     def advance(self, t: float) -> np.ndarray:
         with self._output.catch() as said:  # SUNDIALS' own lines: folded into ours

@@ -170,8 +170,8 @@ class FrozenMobility:
 
     def advance(self, t_from: float, y_from: np.ndarray, t: float, step):
         """Advance from (t_from, y_from) to t through sub-targets, ``step(tn)`` returning
-        (ok, y at tn, result, the stepper's own time), renewing ΔM at the planned times.
-        Returns the last ``result`` (also the failed one)."""
+        (ok, y at tn, result), renewing ΔM at the planned times. Returns the last ``result``
+        (also the failed one)."""
         m = self.model
         refresh, bond = m.hydrodynamics.refresh, m.turn_limit * m.h
         tc = t_from
@@ -188,7 +188,7 @@ class FrozenMobility:
         while True:
             due = self.last + self.plan
             tn = min(t, due, tc + 0.5 * self.plan)
-            ok, y, res, _ = step(tn)
+            ok, y, res = step(tn)
             if not ok:
                 return res
             used = m.mobility_use(y)

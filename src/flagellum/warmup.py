@@ -19,7 +19,8 @@ def warm(methods=None, segments: int = 20) -> list[str]:
     :data:`~flagellum.integrate.cache.METHODS`) by a few steps of each on a filament of
     ``segments`` segments (the kernels' Numba types do not depend on the size); returns the
     methods run."""
-    from .motor import Motor
+    from .hydro.options import Hydrodynamics
+    from .motor import Boundary, Motor
     from .params import Filament, Params
     from .simulator import Simulator, SolverOptions
 
@@ -32,6 +33,11 @@ def warm(methods=None, segments: int = 20) -> list[str]:
         # 20 records over 2 ms: the co-rotating frame adapts and the charts move, so the
         # stepper's history carry through them (a first run's compile otherwise) is cached too
         sim.run(WARM_TIME, save_every=WARM_TIME / 20, progress=False)
+        if method == "bdf":  # its nonlocal path (SBT's default): ΔM's builds, the secant
+            for boundary in (Boundary(), Boundary(anchor="sphere", sphere_radius=1.0)):
+                Simulator(params, Motor(1.0), boundary, solver=SolverOptions(method=method),
+                          hydrodynamics=Hydrodynamics("sbt")).run(
+                    WARM_TIME, save_every=WARM_TIME / 20, progress=False)
     return chosen
 
 

@@ -263,8 +263,8 @@ def _effective_into(x, eps, viscosity, anchor, sphere_radius, rb, out):
 @njit(cache=True)
 def _constrained_into(big, m, idx, coef, out):
     """The first m rows and columns of the mobility ``big`` under the constraints C u = 0
-    (rows of at most two terms, ``idx`` and ``coef``), the constraint forces Cᵀλ acting on the
-    fluid: M − M Cᵀ (C M Cᵀ)⁻¹ C M, into ``out``. This is the resistance form
+    (row r: Σ_t coef[r, t] u[idx[r, t]], idx −1 for no term), the constraint forces Cᵀλ
+    acting on the fluid: M − M Cᵀ (C M Cᵀ)⁻¹ C M, into ``out``. This is the resistance form
     P (Pᵀ M⁻¹ P)⁻¹ Pᵀ for any P whose range is the null space of C (both vanish on Cᵀ and
     reproduce P on M⁻¹P), in O(N²) instead of dense inverses; for a constraint that only
     fixes components it is the Schur complement M_ff − M_fc M_cc⁻¹ M_cf. The bead components
@@ -276,8 +276,9 @@ def _constrained_into(big, m, idx, coef, out):
     size = big.shape[0]
     mc = np.zeros((size, k))  # M Cᵀ
     cm = np.zeros((k, m))  # C M (bead columns)
+    terms = idx.shape[1]
     for r in range(k):
-        for t in range(2):
+        for t in range(terms):
             j = idx[r, t]
             if j < 0:
                 continue
@@ -288,7 +289,7 @@ def _constrained_into(big, m, idx, coef, out):
                 cm[r, i] += c * big[j, i]
     cmc = np.zeros((k, k))
     for r in range(k):
-        for t in range(2):
+        for t in range(terms):
             j = idx[r, t]
             if j >= 0:
                 for q in range(k):
@@ -296,7 +297,10 @@ def _constrained_into(big, m, idx, coef, out):
     out -= np.dot(np.ascontiguousarray(mc[:m]), np.linalg.solve(cmc, cm))
     for r in range(k):
         j = idx[r, 0]
-        if idx[r, 1] < 0 and j < m:  # exactly zero (roundoff of the product otherwise)
+        alone = True
+        for t in range(1, terms):
+            alone = alone and idx[r, t] < 0
+        if alone and j < m:  # exactly zero (roundoff of the product otherwise)
             out[j, :] = 0.0
             out[:, j] = 0.0
 
@@ -330,14 +334,21 @@ def cell_mobility(x, radius, viscosity, cell: CellBody) -> np.ndarray:
     big = grand_mobility(x, radius, viscosity, cell.centre, cell.radius, cell.aspect, cell.axis)
     n1 = len(x)
     m = 3 * n1
-    # Pᵀ M⁻¹ P inverted without dense inverses (:func:`_constrained`): P(Pᵀ M⁻¹ P)⁻¹Pᵀ is the
-    # mobility under the constraint C u = U_0 − V − Ω × d = 0, and its rows of V, U_1 … U_n,
-    # Ω (where P is the identity) are the slots' mobility
-    C = np.zeros((3, m + 6))
-    C[:, :3], C[:, m:m + 3] = np.eye(3), -np.eye(3)
-    C[:, m + 3:] = _skew((np.asarray(x[0], float) - cell.centre)[None])[0]
-    bc = big @ C.T
-    w = big - bc @ np.linalg.solve(C @ bc, C @ big)
+    # Pᵀ M⁻¹ P inverted without dense inverses (:func:`_constrained_into`): P(Pᵀ M⁻¹ P)⁻¹Pᵀ is
+    # the mobility under the constraint C u = U_0 − V − Ω × d = 0 (row a: U_0,a − V_a +
+    # ([d]×Ω)_a), and its rows of V, U_1 … U_n, Ω (where P is the identity) are the slots'
+    skew = _skew((np.asarray(x[0], float) - cell.centre)[None])[0]
+    idx = np.full((3, 4), -1, np.int64)
+    coef = np.zeros((3, 4))
+    for a in range(3):
+        idx[a, :2], coef[a, :2] = (a, m + a), (1.0, -1.0)
+        t = 2
+        for b in range(3):
+            if skew[a, b] != 0.0:
+                idx[a, t], coef[a, t] = m + 3 + b, skew[a, b]
+                t += 1
+    w = np.empty((m + 6, m + 6))
+    _constrained_into(big, m + 6, idx, coef, w)
     slots = np.r_[m:m + 3, 3:m, m + 3:m + 6]
     out = w[np.ix_(slots, slots)]
     if cell.hook_friction:  # + H on Ω's resistance: push-through, (R + SᵀH S)⁻¹ = M − M Sᵀ(1 + H S M Sᵀ)⁻¹ H S M

@@ -387,16 +387,6 @@ def cell_local_mobility(x, h, gpar, gperp, viscosity, cell: CellBody) -> np.ndar
     return out
 
 
-def _attach(R: np.ndarray, n1: int) -> np.ndarray:
-    """Pᵀ R P for P the map of bead velocities to (bead velocities, sphere velocity = bead 0's)."""
-    m = 3 * n1
-    out = R[:m, :m].copy()
-    out[:, :3] += R[:m, m:]
-    out[:3, :] += R[m:, :m]
-    out[:3, :3] += R[m:, m:]
-    return out
-
-
 def rigid_fit(x_ref, x, anchor, axial=None):
     """(R, residual): the rotation R about bead 0 that best maps the beads x_ref onto x, among
     those under which the anchored problem (and so ΔM) is invariant — about e_z only on a load

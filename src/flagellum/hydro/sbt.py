@@ -106,8 +106,8 @@ def _bond_lengths(x: np.ndarray) -> np.ndarray:
 def _segment_kernel(x, eps, cutoff, K):
     """K[3i + a, 3k + b] += ∫ S_ε(x_i − X(s))_ab φ_k(s) ds (3×3 blocks, without 1/8πη) over
     every segment j: the hat function of its first bead (weight 1 − s/ℓ_j) goes to k = j,
-    that of its second (s/ℓ_j) to k = j + 1. ``cutoff`` < 0: the whole filament; else only the part of each
-    segment within that arc length of bead i.
+    that of its second (s/ℓ_j) to k = j + 1. ``cutoff`` < 0: the whole filament; else only
+    the part of each segment within that arc length of bead i.
 
     In the coordinate σ = s − b along the segment (b the projection of x_i − P_j on its
     direction e, p the perpendicular part, c² = |p|² + ε², ρ = √(σ² + c²)) the kernel is

@@ -51,7 +51,7 @@ def test_segment_integrals_match_adaptive_quadrature():
     x = np.cumsum(np.random.default_rng(1).normal(size=(6, 3)) * 0.3, axis=0)
     eps = 0.05
     flat = np.zeros((18, 18))
-    sbt._segment_kernel(x, np.full(5, eps), -1.0, flat)
+    sbt._segment_kernel(x, np.full(5, eps), -1.0, flat, np.ones(6))
     got = flat.reshape(6, 3, 6, 3).transpose(0, 2, 1, 3)
     want = np.zeros_like(got)
 

@@ -506,14 +506,15 @@ class Simulator:
         measured against the new charts (:meth:`RodModel.change_coordinates`)."""
         m = self.model
         carry = getattr(stepper, "carry", None)
-        if not CARRY_HISTORY or carry is None or m.cell or not m.hydrodynamics.is_local:
+        if not CARRY_HISTORY or carry is None or m.cell:
             m.refresh_mobility(y, force=True)
             stepper.reset(t, y)
             return
         d_omega = m.omega_frame - omega
         moved = np.any(charts[0] != m.ref_u, axis=1) | np.any(charts[1] != m.ref_e, axis=1)
         only = None if d_omega != 0.0 else moved
-        carry(t, y, lambda s, ys: m.change_coordinates(ys, charts, -d_omega * (s - t), only))
+        carry(t, y, lambda s, ys: m.change_coordinates(ys, charts, -d_omega * (s - t), only),
+              frame_turned=d_omega != 0.0)
 
     def _advance_chunk(self, stepper, t_next: float) -> np.ndarray:
         """One chunk; if the stepper fails, once more from the chunk's start after re-centring

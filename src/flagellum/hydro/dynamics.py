@@ -530,6 +530,59 @@ def _rotate_blocks(dm, R, out):
                     out[i + a, j + d] = tmp[a, 0] * R[d, 0] + tmp[a, 1] * R[d, 1] + tmp[a, 2] * R[d, 2]
 
 
+@njit(cache=True)
+def turn_into(x, frozen, src, dm, within, bond, about_z, fixed, n1):
+    """Turn ΔM ``src`` (built at the points ``frozen``) onto the points x, into ``dm`` (which
+    may be ``src``), where they moved rigidly: where the best rotation R of ``frozen`` about
+    its point 0 (:func:`rigid_fit`, about e_z with ``about_z``; ``fixed``: bead 0's own
+    displacement counts too) leaves at most ``within`` and turns none of the first ``n1``
+    points' bonds by more than ``bond`` (lengths), each block becomes R D_ij Rᵀ
+    (:func:`rotate_correction`) and ``frozen`` the turned points. Returns whether it turned
+    (never with ``within`` < 0)."""
+    if within < 0.0:
+        return False
+    R = np.empty((3, 3))
+    if _rigid_fit(frozen, x, about_z, fixed, R) > within:
+        return False
+    n = x.shape[0]
+    turned = np.empty((n, 3))
+    for i in range(n):
+        for a in range(3):
+            turned[i, a] = x[0, a] + (R[a, 0] * (frozen[i, 0] - frozen[0, 0])
+                                      + R[a, 1] * (frozen[i, 1] - frozen[0, 1])
+                                      + R[a, 2] * (frozen[i, 2] - frozen[0, 2]))
+    for i in range(1, n1):  # bonds_within
+        for a in range(3):
+            if abs((x[i, a] - turned[i, a]) - (x[i - 1, a] - turned[i - 1, a])) > bond:
+                return False
+    tmp = np.empty_like(dm)
+    _rotate_blocks(src, R, tmp)
+    m = dm.shape[0]
+    for i in range(m):
+        for j in range(m):
+            dm[i, j] = tmp[i, j]
+    for i in range(n):
+        for a in range(3):
+            frozen[i, a] = turned[i, a]
+    return True
+
+
+@njit(cache=True)
+def renew_into(x, frozen, src, dm, turn, build):
+    """Renew ΔM into ``dm`` at the bead positions x and set ``frozen`` to them: ``src`` (the
+    ΔM built at ``frozen``; may be ``dm``) turned (:func:`turn_into`, ``turn`` its arguments
+    after ``dm``) where the beads moved rigidly, else rebuilt (:func:`correction`; ``build``
+    the arguments of its compiled routine after x, without ``out``). The renewal of an
+    anchored filament, a load sphere or a free swimmer's sphere in one compiled call (a cell
+    body's build is not compiled)."""
+    if turn_into(x, frozen, src, dm, *turn):
+        return
+    _correction_into(x, *build, dm)
+    for i in range(x.shape[0]):
+        for a in range(3):
+            frozen[i, a] = x[i, a]
+
+
 def correction(x, h, gammas, anchor, zeta, radius, viscosity, sphere_radius=0.0,
                symmetric=False, out=None) -> np.ndarray:
     """ΔM = M_eff − M_loc at frozen bead positions x (:func:`effective_mobility`,
@@ -545,10 +598,18 @@ def correction(x, h, gammas, anchor, zeta, radius, viscosity, sphere_radius=0.0,
     x = np.ascontiguousarray(x, dtype=float)
     if out is None:
         out = np.empty((3 * len(x), 3 * len(x)))
-    _correction_into(x, _blob_sizes(radius, len(x) - 1), h, gammas[0], gammas[1], anchor,
-                     zeta, float(viscosity), float(sphere_radius),
-                     _sphere_resistance(sphere_radius, viscosity), symmetric, out)
+    _correction_into(x, *build_arguments(len(x) - 1, h, gammas, anchor, zeta, radius,
+                                         viscosity, sphere_radius, symmetric), out)
     return out
+
+
+def build_arguments(n, h, gammas, anchor, zeta, radius, viscosity, sphere_radius=0.0,
+                    symmetric=False) -> tuple:
+    """The arguments of :func:`correction`'s compiled routine after the positions and before
+    ``out``, for n segments (those of :func:`renew_into`'s build)."""
+    return (_blob_sizes(radius, n), float(h), float(gammas[0]), float(gammas[1]), int(anchor),
+            float(zeta), float(viscosity), float(sphere_radius),
+            _sphere_resistance(sphere_radius, viscosity), bool(symmetric))
 
 
 @njit(cache=True)
@@ -593,4 +654,4 @@ def fixed_components(anchor) -> int:
 __all__ = ["CellBody", "Hydrodynamics", "MODELS", "REFRESH", "body_flow", "cell_correction",
            "cell_local_mobility", "cell_mobility", "correction", "effective_mobility",
            "grand_mobility", "local_mobility", "moving_components", "rigid_fit",
-           "rotate_correction", "sphere_centre", "sphere_coupling", "turn_limit", "bonds_within", "near_beads"]
+           "rotate_correction", "renew_into", "sphere_centre", "turn_into", "sphere_coupling", "turn_limit", "bonds_within", "near_beads"]

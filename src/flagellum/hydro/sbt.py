@@ -103,16 +103,20 @@ def _bond_lengths(x: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True, error_model="numpy")  # no fastmath: the closed forms are checked to 1e-11
-def _segment_kernel(x, eps, cutoff, K):
-    """K[3i + a, 3k + b] += ∫ S_ε(x_i − X(s))_ab φ_k(s) ds (3×3 blocks, without 1/8πη) over
-    every segment j: the hat function of its first bead (weight 1 − s/ℓ_j) goes to k = j,
-    that of its second (s/ℓ_j) to k = j + 1. ``cutoff`` < 0: the whole filament; else only
-    the part of each segment within that arc length of bead i.
+def _segment_kernel(x, eps, cutoff, K, scale):
+    """K[3i + a, 3k + b] = scale_k ∫ S_ε(x_i − X(s))_ab φ_k(s) ds (3×3 blocks, without
+    1/8πη) over the segments on either side of bead k: the hat function of segment j's first
+    bead (weight 1 − s/ℓ_j) goes to k = j, that of its second (s/ℓ_j) to k = j + 1. ``cutoff``
+    < 0: the whole filament; else only the part of each segment within that arc length of
+    bead i. Every block is written once (no zeroing of K first).
 
     In the coordinate σ = s − b along the segment (b the projection of x_i − P_j on its
     direction e, p the perpendicular part, c² = |p|² + ε², ρ = √(σ² + c²)) the kernel is
     [(1 + ε²/ρ²) 1 + (p − σe)(p − σe)ᵀ/ρ²]/ρ, so all that is needed are the moments
-    ∫ σᵏ/ρ (k = 0, 1) and ∫ σᵏ/ρ³ (k = 0…3), here in cancellation-free closed forms.
+    ∫ σᵏ/ρ (k = 0, 1) and ∫ σᵏ/ρ³ (k = 0…3), here in cancellation-free closed forms. A
+    block is m0 p pᵀ − m1 (p eᵀ + e pᵀ) + m2 e eᵀ + iso·1 with the hat-weighted moments m;
+    the first bead's is the whole segment's minus the second's (the weights sum to 1), and
+    the second bead's is carried to the next segment's first: one pass writes each block.
     """
     n1 = x.shape[0]
     n = n1 - 1
@@ -124,15 +128,17 @@ def _segment_kernel(x, eps, cutoff, K):
         ell[j] = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
         e[j, 0], e[j, 1], e[j, 2] = d0 / ell[j], d1 / ell[j], d2 / ell[j]
         arc[j + 1] = arc[j] + ell[j]
-    inv_ell = 1.0 / ell
-    p = np.empty(3)
     for i in range(n1):
+        # the second bead's block of the previous segment (its six distinct entries)
+        c00 = c01 = c02 = c11 = c12 = c22 = 0.0
+        xi0, xi1, xi2 = x[i, 0], x[i, 1], x[i, 2]
         for j in range(n):
-            r0, r1, r2 = x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], x[i, 2] - x[j, 2]
-            b = r0 * e[j, 0] + r1 * e[j, 1] + r2 * e[j, 2]
-            p[0], p[1], p[2] = r0 - b * e[j, 0], r1 - b * e[j, 1], r2 - b * e[j, 2]
+            e0, e1, e2 = e[j, 0], e[j, 1], e[j, 2]
+            r0, r1, r2 = xi0 - x[j, 0], xi1 - x[j, 1], xi2 - x[j, 2]
+            b = r0 * e0 + r1 * e1 + r2 * e2
+            p0, p1, p2 = r0 - b * e0, r1 - b * e1, r2 - b * e2
             eps2 = eps[j] * eps[j]
-            c2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + eps2
+            c2 = p0 * p0 + p1 * p1 + p2 * p2 + eps2
             lo, hi = 0.0, ell[j]
             if cutoff >= 0.0:  # the part of segment j within arc length `cutoff` of bead i
                 rel = arc[i] - arc[j]
@@ -152,29 +158,44 @@ def _segment_kernel(x, eps, cutoff, K):
                 J0 = math.log((s1 + q1) * (q0 - s0) / c2)
             # σ/(c²ρ) = sgn σ (1/c² − 1/(ρ(ρ + |σ|))): no cancellation when both ends lie on one side
             iq0, iq1 = 1.0 / q0, 1.0 / q1
-            g1, g0 = np.sign(s1), np.sign(s0)
+            g1 = 1.0 if s1 > 0.0 else (-1.0 if s1 < 0.0 else 0.0)
+            g0 = 1.0 if s0 > 0.0 else (-1.0 if s0 < 0.0 else 0.0)
             K0 = (g1 - g0) / c2 - (g1 * iq1 / (q1 + abs(s1)) - g0 * iq0 / (q0 + abs(s0)))
             K1 = J1 * iq0 * iq1
             K2 = J0 - (s1 * iq1 - s0 * iq0)
             K3 = J1 - c2 * K1
-            inv = inv_ell[j]
-            for side in range(2):  # weight β0 + β1 σ of the first / second bead's hat function
-                if side == 0:
-                    beta0, beta1, k = 1.0 - b * inv, -inv, j
-                else:
-                    beta0, beta1, k = b * inv, inv, j + 1
-                m0, m1 = beta0 * K0 + beta1 * K1, beta0 * K1 + beta1 * K2
-                m2 = beta0 * K2 + beta1 * K3
-                iso = beta0 * J0 + beta1 * J1 + eps2 * m0
-                for a in range(3):  # the block is symmetric
-                    for bb in range(a, 3):
-                        v = m0 * p[a] * p[bb] - m1 * (p[a] * e[j, bb] + e[j, a] * p[bb]) \
-                            + m2 * e[j, a] * e[j, bb]
-                        if a == bb:
-                            K[3 * i + a, 3 * k + a] += v + iso
-                        else:
-                            K[3 * i + a, 3 * k + bb] += v
-                            K[3 * i + bb, 3 * k + a] += v
+            # the second bead's hat weight (b + σ)/ℓ_j
+            inv = 1.0 / ell[j]
+            be0 = b * inv
+            m0, m1, m2 = be0 * K0 + inv * K1, be0 * K1 + inv * K2, be0 * K2 + inv * K3
+            iso = be0 * J0 + inv * J1 + eps2 * m0
+            f0, f1, f2 = m0 * p0 - m1 * e0, m0 * p1 - m1 * e1, m0 * p2 - m1 * e2
+            h0, h1, h2 = m2 * e0 - m1 * p0, m2 * e1 - m1 * p1, m2 * e2 - m1 * p2
+            n00, n01, n02 = f0 * p0 + h0 * e0 + iso, f0 * p1 + h0 * e1, f0 * p2 + h0 * e2
+            n11, n12, n22 = f1 * p1 + h1 * e1 + iso, f1 * p2 + h1 * e2, f2 * p2 + h2 * e2 + iso
+            # the whole segment (weight 1) minus the second bead's: the first bead's
+            isot = J0 + eps2 * K0
+            f0, f1, f2 = K0 * p0 - K1 * e0, K0 * p1 - K1 * e1, K0 * p2 - K1 * e2
+            h0, h1, h2 = K2 * e0 - K1 * p0, K2 * e1 - K1 * p1, K2 * e2 - K1 * p2
+            sk = scale[j]
+            v00 = (f0 * p0 + h0 * e0 + isot - n00 + c00) * sk
+            v01 = (f0 * p1 + h0 * e1 - n01 + c01) * sk
+            v02 = (f0 * p2 + h0 * e2 - n02 + c02) * sk
+            v11 = (f1 * p1 + h1 * e1 + isot - n11 + c11) * sk
+            v12 = (f1 * p2 + h1 * e2 - n12 + c12) * sk
+            v22 = (f2 * p2 + h2 * e2 + isot - n22 + c22) * sk
+            _write_block(K, 3 * i, 3 * j, v00, v01, v02, v11, v12, v22)
+            c00, c01, c02, c11, c12, c22 = n00, n01, n02, n11, n12, n22
+        sk = scale[n]
+        _write_block(K, 3 * i, 3 * n, c00 * sk, c01 * sk, c02 * sk, c11 * sk, c12 * sk, c22 * sk)
+
+
+@njit(cache=True, inline="always")
+def _write_block(K, r, c, v00, v01, v02, v11, v12, v22):
+    """The symmetric 3×3 block at (r, c) of K from its six distinct entries."""
+    K[r, c], K[r, c + 1], K[r, c + 2] = v00, v01, v02
+    K[r + 1, c], K[r + 1, c + 1], K[r + 1, c + 2] = v01, v11, v12
+    K[r + 2, c], K[r + 2, c + 1], K[r + 2, c + 2] = v02, v12, v22
 
 
 def mobility(positions, radius, viscosity, weights=None, cutoff=None) -> np.ndarray:
@@ -210,15 +231,11 @@ def mobility(positions, radius, viscosity, weights=None, cutoff=None) -> np.ndar
 def _mobility_into(x, eps, w, viscosity, cutoff, M):
     """:func:`mobility` into M (3(n+1) square) without the checks: the kernel's integrals per
     unit line density, each column k divided by 8πη w_k."""
-    M[:] = 0.0
-    _segment_kernel(x, eps, cutoff, M)
-    m = M.shape[0]
-    s = np.empty(m)
-    for c in range(m):
-        s[c] = 1.0 / (8.0 * math.pi * viscosity * w[c // 3])
-    for r in range(m):
-        for c in range(m):
-            M[r, c] *= s[c]
+    n1 = x.shape[0]
+    s = np.empty(n1)
+    for k in range(n1):
+        s[k] = 1.0 / (8.0 * math.pi * viscosity * w[k])
+    _segment_kernel(x, eps, cutoff, M, s)
 
 
 def rigid_motion_matrix(positions, origin=(0.0, 0.0, 0.0)) -> np.ndarray:

@@ -26,9 +26,13 @@ renewed ΔM's S: ΔM's first-order change along the direction the beads last mov
 where the beads went on about as before (:data:`CONTINUE_W`), else from S_k, with a jump of
 the secant's second-order error (:meth:`FrozenMobility.renew`). It is a function of the
 state alone, with no lag behind the shape (a time ramp from one ΔM to the next lags by a
-whole interval). ``w`` is held within [:data:`W_LO`, :data:`W_HI`]. The model is
-:func:`secant_mobility`, called per right-hand side: from Python by CVODE's callback, from
-the compiled loop by the BDF.
+whole interval). ``w`` is held within [:data:`W_LO`, :data:`W_HI`]. CVODE's Python
+callback writes the model's value into the kernels' ΔM per right-hand side
+(:func:`secant_mobility`); the BDF's compiled right-hand side only sets w
+(:func:`secant_weight`, the kernels' prm[P_SECANT]) and the kernel applies B_k F + w (G_k F),
+G_k being the kernels' DG: two matrix–vector products instead of writing the matrix (8.7 →
+5.2 µs per right-hand side at N = 50). The renewals are compiled too (:func:`renew_secant`),
+and the BDF runs their loop (:meth:`FrozenMobility.advance`) compiled.
 """
 
 from __future__ import annotations
@@ -36,7 +40,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..hydro.dynamics import bond_change
+from ..hydro.dynamics import bond_change, renew_into
+from ..rod.kernels import P_SECANT
 from ..rod.model import positions as m_positions
 
 #: the secant parameters (the float array of :func:`secant_mobility`): whether the secant
@@ -57,17 +62,33 @@ CONTINUE_W = (0.5, 1.5)
 
 
 @njit(cache=True)
-def secant_mobility(y, dm, base, G, xu, rp):
-    """ΔM(y) = base + w G with w = xu[1] · (x(y) − xu[0]) (x the bead positions of the
-    state y), written into ``dm`` when w has changed (no-op with the model off)."""
-    if rp[R_ACTIVE] == 0.0:
-        return
+def _secant_w(y, xu):
+    """w(y) = xu[1] · (x(y) − xu[0]) (x the bead positions of the state y), held within
+    [:data:`W_LO`, :data:`W_HI`]."""
     nb = xu.shape[1] // 3
     w = 0.0
     for i in range(nb):
         for c in range(3):
             w += xu[1, 3 * i + c] * (y[3 + 4 * i + c] - xu[0, 3 * i + c])
-    w = min(W_HI, max(W_LO, w))
+    return min(W_HI, max(W_LO, w))
+
+
+@njit(cache=True)
+def secant_weight(y, xu, rp):
+    """The model's w at y (0 with the model off): what the kernel's prm[P_SECANT] is set to
+    where ΔM is applied as base + w G (:mod:`flagellum.rod.kernels`), as the BDF does."""
+    if rp[R_ACTIVE] == 0.0:
+        return 0.0
+    return _secant_w(y, xu)
+
+
+@njit(cache=True)
+def secant_mobility(y, dm, base, G, xu, rp):
+    """ΔM(y) = base + w G with w = xu[1] · (x(y) − xu[0]) (x the bead positions of the
+    state y), written into ``dm`` when w has changed (no-op with the model off)."""
+    if rp[R_ACTIVE] == 0.0:
+        return
+    w = _secant_w(y, xu)
     if w == rp[R_W]:
         return
     m = dm.shape[0]
@@ -78,10 +99,29 @@ def secant_mobility(y, dm, base, G, xu, rp):
 
 
 @njit(cache=True)
-def _start_secant(dm, sample, current, base, G, carry):
-    """One pass over the renewed ΔM S_k+1 (in ``dm``) and the last one S_k (``sample``): the
-    new model's slope G = S_k+1 − S_k, and with ``carry`` − (C − S_k+1), its base C
-    (``current``) or S_k+1, written to ``base`` and ``dm``; ``sample`` becomes S_k+1."""
+def secant_before(y, dm, sample, xu, rp):
+    """The first half of :meth:`FrozenMobility.renew`, before ΔM is renewed: (carry, w*),
+    the old model's w at y and whether the new model continues from its value there (w*
+    within :data:`CONTINUE_W`). (Re)started (model off), ``sample`` := ``dm``, the ΔM built
+    last: the one a renewal compares with and turns, and the secant's start."""
+    if rp[R_ACTIVE] == 0.0:
+        m = dm.shape[0]
+        for i in range(m):
+            for j in range(m):
+                sample[i, j] = dm[i, j]
+        return False, 0.0
+    w = _secant_w(y, xu)
+    return CONTINUE_W[0] <= w <= CONTINUE_W[1], w
+
+
+@njit(cache=True)
+def secant_after(dm, sample, base, G, xu, rp, x_prev, x_new, carry, w_star):
+    """The second half of :meth:`FrozenMobility.renew`, ΔM renewed in ``dm`` (S_k+1) at the
+    beads ``x_new`` (flat), the last renewal S_k (``sample``) at ``x_prev``, in one pass: the
+    new model's slope G = S_k+1 − S_k and base S_k+1, or with ``carry`` its base
+    C = base + w* G (the old model's value at the renewal) and slope S_k+1 − S_k − (C − S_k+1);
+    ``dm`` := the base (the model at w = 0), ``sample`` := S_k+1, (x_k, d/|d|²) set and the
+    model on."""
     m = dm.shape[0]
     for i in range(m):
         for j in range(m):
@@ -89,12 +129,68 @@ def _start_secant(dm, sample, current, base, G, carry):
             g = s_new - sample[i, j]
             b = s_new
             if carry:
-                b = current[i, j]
+                b = base[i, j] + w_star * G[i, j]
                 g -= b - s_new
             G[i, j] = g
             sample[i, j] = s_new
             base[i, j] = b
             dm[i, j] = b
+    dd = 0.0
+    for i in range(x_new.shape[0]):
+        d = x_new[i] - x_prev[i]
+        dd += d * d
+    for i in range(x_new.shape[0]):
+        xu[0, i] = x_new[i]
+        xu[1, i] = (x_new[i] - x_prev[i]) / dd if dd > 0.0 else 0.0
+    rp[R_ACTIVE], rp[R_W] = 1.0, 0.0
+
+
+@njit(cache=True)
+def renew_secant(y, x, dm, work, secant, frozen, turn, build):
+    """:meth:`FrozenMobility.renew` compiled, for a model whose renewal is compiled (no cell
+    body; :func:`~flagellum.hydro.dynamics.renew_into` with ``turn`` and ``build``): x the
+    bead positions of y, ``work`` (sample, x_prev), ``secant`` (base, G, xu, rp)."""
+    sample, x_prev = work
+    base, G, xu, rp = secant
+    carry, w_star = secant_before(y, dm, sample, xu, rp)
+    n1 = frozen.shape[0]
+    for i in range(n1):
+        for a in range(3):
+            x_prev[3 * i + a] = frozen[i, a]
+    renew_into(x, frozen, sample, dm, turn, build)  # turned from the last renewal
+    secant_after(dm, sample, base, G, xu, rp, x_prev, frozen.ravel(), carry, w_star)
+
+
+# the plan of renewals: F_LAST the time of the last one, F_PLAN the planned interval to the
+# next (0: plan from the bead speeds), F_COUNT the renewals at planned sub-targets so far
+F_LAST, F_PLAN, F_COUNT = range(3)
+
+
+@njit(cache=True)
+def next_target(plan, tc, t):
+    """(tn, due): the next sub-target after tc towards t (the planned renewal or the half-way
+    check before it) and the planned renewal time."""
+    due = plan[F_LAST] + plan[F_PLAN]
+    return min(t, due, tc + 0.5 * plan[F_PLAN]), due
+
+
+@njit(cache=True)
+def renewal_due(tn, due, used):
+    """Whether ΔM is renewed at the sub-target tn: the planned time reached, or the limits
+    used past :data:`EARLY_USE`."""
+    return tn >= due - 1e-12 * max(1.0, abs(due)) or used > EARLY_USE
+
+
+@njit(cache=True)
+def replan(plan, tn, used):
+    """After a renewal at tn, where the limits' use over the interval since the last was
+    ``used``: the next interval from this one, scaled to use :data:`TARGET_USE` of the limits
+    (within [:data:`PLAN_SHRINK`, :data:`PLAN_GROWTH`] times it)."""
+    interval = tn - plan[F_LAST]
+    plan[F_LAST] = tn
+    plan[F_COUNT] += 1.0
+    if used > 0:
+        plan[F_PLAN] = min(PLAN_GROWTH, max(PLAN_SHRINK, TARGET_USE / used)) * interval
 
 
 #: the first planned interval after a (re)start where the bond limit can bind, as a fraction
@@ -115,19 +211,58 @@ class FrozenMobility:
         self.active = (not model.hydrodynamics.is_local) and model.hydrodynamics.refresh > 0
         size = model.kernel_arrays[-1][-1].shape[0] if self.active else 0
         nb = model.n + 1 if self.active else 0
-        self.arrays = (np.zeros((size, size)), np.zeros((size, size)), np.zeros((2, 3 * nb)),
-                       np.zeros(2))
-        #: the ΔM renewed last (turns and comparisons start from it), and the old model's
-        #: value at a renewal (work arrays of :meth:`renew`)
-        self._sample, self._current = np.zeros((size, size)), np.zeros((size, size))
+        # the slope G is the kernels' DG: the BDF applies ΔM as DM + w DG (DM = the base)
+        G = model.kernel_arrays[-1][-2] if self.active else np.zeros((0, 0))
+        self.arrays = (np.zeros((size, size)), G, np.zeros((2, 3 * nb)), np.zeros(2))
+        #: the ΔM renewed last (turns and comparisons start from it) and the beads of the
+        #: last renewal (work arrays of :meth:`renew`)
+        self.work = (np.zeros((size, size)), np.zeros(3 * nb))
+        #: the plan of renewals (:data:`F_LAST`, :data:`F_PLAN`, :data:`F_COUNT`)
+        self.plan = np.zeros(3)
+        self._renewal = None  # (renewal_arguments, built at the first renewal)
         self.reset(0.0)
+
+    def renewal_arguments(self) -> tuple:
+        """(x, turn, build, refresh, bond) of a compiled renewal (:func:`renew_secant`, the
+        BDF's loop): scratch for the bead positions, the arguments of the turn and of the
+        build (:meth:`RodModel.turn_arguments <flagellum.rod.model.RodModel.turn_arguments>`,
+        :meth:`~flagellum.rod.model.RodModel.build_arguments`) and the renewal limits (a
+        displacement and a bond change), all fixed for the model: made once. Not for a cell
+        body, whose build is not compiled."""
+        if self._renewal is None:
+            m = self.model
+            self._renewal = (np.empty((m.n + 1, 3)), m.turn_arguments(), m.build_arguments(),
+                             float(m.hydrodynamics.refresh), float(m.turn_limit * m.h))
+        return self._renewal
+
+    @property
+    def renewals(self) -> int:
+        """The renewals of ΔM at planned sub-targets since construction."""
+        return int(self.plan[F_COUNT])
+
+    @property
+    def last(self) -> float:
+        """The time of the last renewal."""
+        return float(self.plan[F_LAST])
 
     def reset(self, t0: float) -> None:
         """Start over at t0 (a restarted stepper): the ΔM built last as it is, no secant yet,
         the next interval planned from the bead speeds."""
+        self._off()
+        self.plan[F_LAST], self.plan[F_PLAN] = float(t0), 0.0
+
+    def _off(self) -> None:
+        """The secant model off: ΔM applied as it is in DM."""
         self.arrays[3][:] = (0.0, np.nan)
-        self.last = float(t0)  #: the time of the last renewal
-        self.plan = 0.0  #: the planned interval to the next one (0: plan from the speeds)
+        self.model.prm[P_SECANT] = 0.0
+
+    def restart_at(self, t: float, y: np.ndarray) -> None:
+        """ΔM rebuilt at the beads of y (the stepper's history carried through a change of
+        coordinates that moved the past positions) and the secant model off until the next
+        renewal starts it from there; the planned interval kept, counted from t."""
+        self.model.refresh_mobility(y, force=True)
+        self._off()
+        self.plan[F_LAST] = float(t)
 
     def apply(self, y: np.ndarray) -> None:
         """Set the kernel's ΔM to the secant model's value at y."""
@@ -142,62 +277,62 @@ class FrozenMobility:
         error at y, E = C − S_k+1, then reaches the next renewal as (1 − w*) E, so this is
         done only for w* within :data:`CONTINUE_W` (the beads went on about as they did:
         the error shrinks at least 2×); otherwise the new model starts at S_k+1 (a jump of E,
-        and no error carried)."""
+        and no error carried). One compiled call without a cell body (:func:`renew_secant`,
+        which the BDF's compiled loop calls too)."""
         m = self.model
         dm = m.kernel_arrays[-1][-1]
+        if m.frozen_beads is None:  # nothing built yet
+            m.refresh_mobility(y, force=True)
+        m.prm[P_SECANT] = 0.0  # (the model starts at w = 0)
+        if not m.cell:
+            x, turn, build = self.renewal_arguments()[:3]
+            x[:] = m_positions(y)
+            renew_secant(y, x, dm, self.work, self.arrays, m.frozen_beads, turn, build)
+            return
+        sample, x_prev = self.work
         base, G, xu, rp = self.arrays
-        carry = False
-        if rp[R_ACTIVE]:
-            rp[R_W] = np.nan
-            secant_mobility(y, self._current, *self.arrays)  # C
-            carry = CONTINUE_W[0] <= rp[R_W] <= CONTINUE_W[1]
-            # the model compares with, and turns, the ΔM it renewed last (its frozen beads
-            # are that renewal's), not the secant's value at some state
-            dm[:] = self._sample
-        else:  # (re)started: the ΔM built last as it is
-            if m.frozen_beads is None:  # nothing built yet
-                m.refresh_mobility(y, force=True)
-            self._sample[:] = dm
-        x_prev = m.frozen_beads.ravel().copy()
+        active = rp[R_ACTIVE] != 0.0
+        carry, w_star = secant_before(y, dm, sample, xu, rp)
+        if active:
+            dm[:] = sample  # a renewal turns the ΔM renewed last, not the model's value
+        x_prev[:] = m.frozen_beads.ravel()
         m.refresh_mobility(y, due=True)
-        x_new = m.frozen_beads.ravel()
-        d = x_new - x_prev
-        dd = float(d @ d)
-        _start_secant(dm, self._sample, self._current, base, G, carry)
-        xu[0] = x_new
-        xu[1] = d / dd if dd > 0.0 else 0.0
-        rp[:] = (1.0, 0.0)  # dm holds the model's value at w = 0
+        secant_after(dm, sample, base, G, xu, rp, x_prev,
+                     np.ascontiguousarray(m.frozen_beads).ravel(), carry, w_star)
+
+    def begin(self, t_from: float, y_from: np.ndarray, t: float) -> None:
+        """Before advancing from (t_from, y_from) towards t: after a (re)start, the first
+        interval planned from the bead speeds now (which builds ΔM if none is)."""
+        if self.plan[F_PLAN] > 0:
+            return
+        m = self.model
+        refresh, bond = m.hydrodynamics.refresh, m.turn_limit * m.h
+        u = m_positions(m.rhs(t_from, y_from))
+        rate = max(float(np.max(np.abs(u))) / refresh, bond_change(u) / bond)
+        plan = TARGET_USE / rate if rate > 0 else t - t_from
+        if bond < 2 * refresh:
+            # the bond limit can bind (fine filaments): passing it is unstable, not just
+            # less accurate, and from rest the bonds speed up 40-fold within microseconds
+            # (N = 400), so begin with a small part and let the intervals grow
+            plan *= FIRST_SUB_FRACTION
+        self.plan[F_LAST], self.plan[F_PLAN] = min(self.plan[F_LAST], t_from), plan
 
     def advance(self, t_from: float, y_from: np.ndarray, t: float, step):
         """Advance from (t_from, y_from) to t through sub-targets, ``step(tn)`` returning
         (ok, y at tn, result), renewing ΔM at the planned times. Returns the last ``result``
-        (also the failed one)."""
+        (also the failed one). (The BDF runs the same loop compiled: :func:`flagellum.integrate.bdf.bdf_frozen_advance`.)"""
         m = self.model
-        refresh, bond = m.hydrodynamics.refresh, m.turn_limit * m.h
+        self.begin(t_from, y_from, t)
         tc = t_from
-        if self.plan <= 0:  # first call after a (re)start: from the bead speeds now
-            u = m_positions(m.rhs(tc, y_from))
-            rate = max(float(np.max(np.abs(u))) / refresh, bond_change(u) / bond)
-            self.plan = TARGET_USE / rate if rate > 0 else t - tc
-            if bond < 2 * refresh:
-                # the bond limit can bind (fine filaments): passing it is unstable, not just
-                # less accurate, and from rest the bonds speed up 40-fold within microseconds
-                # (N = 400), so begin with a small part and let the intervals grow
-                self.plan *= FIRST_SUB_FRACTION
-            self.last = min(self.last, tc)
         while True:
-            due = self.last + self.plan
-            tn = min(t, due, tc + 0.5 * self.plan)
+            tn, due = next_target(self.plan, tc, t)
             ok, y, res = step(tn)
             if not ok:
                 return res
             used = m.mobility_use(y)
-            if tn >= due - 1e-12 * max(1.0, abs(due)) or used > EARLY_USE:
-                interval = tn - self.last
+            if renewal_due(tn, due, used):
                 self.renew(y)
-                self.last = tn
-                if used > 0:
-                    self.plan = min(PLAN_GROWTH, max(PLAN_SHRINK, TARGET_USE / used)) * interval
+                replan(self.plan, tn, used)
             tc = tn
             if tn >= t:
                 return res

@@ -152,7 +152,8 @@ def rod_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, 
         ip = iprm.copy()
         ip[K.I_HYDRO] = K.HYDRO_BANDED
     K.rod_rhs(y, f_work, prm, ip, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws)
-    T, E1, E2, LEN, S, GT, GTH, DR, V, A1, CW, DM = ws
+    T, E1, E2, LEN, S, GT, GTH, DR, V, A1, CW, DG, DM = ws
+    sw = prm[K.P_SECANT]  # ΔM = DM + sw DG (a secant model's value)
     ab[:, :] = 0.0
     # joints: d(G_t, G_Θ of frames k) over frames k−1 … k+1 (4 values each)
     dGT = np.zeros((n1, 3, 12))
@@ -322,6 +323,8 @@ def rod_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, 
                 for r in range(3):
                     for c in range(3):
                         d = DM[3 * i + r, 3 * k + c]
+                        if sw != 0.0:
+                            d += sw * DG[3 * i + r, 3 * k + c]
                         if d != 0.0:
                             for qq in range(16):
                                 wide[i, r, off + qq] -= d * dDR[k, c, qq]

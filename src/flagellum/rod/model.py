@@ -15,9 +15,9 @@ import numpy as np
 from ..errors import SimulationError
 from ..helix import DiscreteHelix, discrete_helix
 from ..hydro import body as body_model
-from ..hydro.dynamics import (CellBody, bonds_within, cell_correction, cell_local_mobility,
-                              correction, local_mobility, moving_components, near_beads,
-                              rigid_fit, rotate_correction, turn_limit, limits_used)
+from ..hydro.dynamics import (CellBody, bonds_within, build_arguments, cell_correction,
+                              cell_local_mobility, correction, limits_used, local_mobility,
+                              moving_components, near_beads, renew_into, turn_into, turn_limit)
 from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
 from ..params import EndLoad, Params
@@ -129,7 +129,7 @@ class RodModel:
         self.prm = np.array([self.h, f.bend_rigidity, f.twist_rigidity, f.stretch_modulus,
                              f.kappa0, f.torsion, self.boundary.hook_stiffness,
                              self.sphere_drag, gp, gn, gr, self.motor(0.0), self.omega_frame, 1.0,
-                             self.body_rotation_per_torque, *ccw, *cw, *cell])
+                             self.body_rotation_per_torque, 0.0, *ccw, *cw, *cell])
         anchor = K.ANCHOR_CELL if self.cell else _ANCHOR[self.boundary.anchor]
         self.iprm = np.array([self.n, _HOOK[self.boundary.hook], anchor, 0,
                               K.HYDRO_FROZEN if self._nonlocal else K.HYDRO_LOCAL,
@@ -318,9 +318,9 @@ class RodModel:
             ny = self.state_size
             rng = np.random.default_rng(12345)
             prm = self.prm.copy()
-            prm[K.P_TORQUE], prm[K.P_OMEGA] = 1.0, 300.0
+            prm[K.P_TORQUE], prm[K.P_OMEGA], prm[K.P_SECANT] = 1.0, 300.0, 0.0
             charts = (self.ref_u.copy(), self.ref_e.copy(), self.ref_m.copy())
-            frozen = (self._ws[-1].copy(), self._frozen)
+            frozen = (self._ws[-1].copy(), None if self._frozen is None else self._frozen.copy())
             nz = np.zeros((ny, 2 * kl + ku + 1), bool)
             ab = np.zeros_like(nz, dtype=float)
             for _ in range(2):
@@ -363,26 +363,44 @@ class RodModel:
             return False
         x = self._mobility_points(y)
         n1 = self.n + 1
+        dm = self._ws[-1]
         if not force and self._frozen is not None:
             bond = self.turn_limit * self.h
             if (not due and np.max(np.abs(x - self._frozen)) <= self.hydrodynamics.refresh
                     and bonds_within(x[:n1], self._frozen[:n1], bond)):
                 return False
-            # a rigid rotation of the frozen beads (about bead 0): turn ΔM instead of rebuilding
-            # (a free swimmer's sphere sits at x_0 + a e_z: about e_z only)
-            b = self.boundary
-            within = self.hydrodynamics.refresh * (DUE_TURN_RESIDUAL if due else 1.0)
-            rot, resid = rigid_fit(self._frozen, x, _ANCHOR[b.anchor],
-                                   axial=(b.anchor != "fixed" and bool(b.sphere_radius)) or None)
-            if resid <= within:
-                turned = x[0] + (self._frozen - self._frozen[0]) @ rot.T
-                if bonds_within(x[:n1], turned[:n1], bond):
-                    self._ws[-1][:] = rotate_correction(self._ws[-1], rot)
-                    self._frozen = turned
-                    return True
-        self._correction(x, out=self._ws[-1])
-        self._frozen = x.copy()
+            if not self.cell:
+                renew_into(x, self._frozen, dm, dm, self.turn_arguments(due),
+                           self.build_arguments())
+                return True
+            if turn_into(x, self._frozen, dm, dm, *self.turn_arguments(due)):
+                return True
+        if self._frozen is None:
+            self._frozen = np.empty_like(x)
+        self._correction(x, out=dm)
+        self._frozen[:] = x
         return True
+
+    def turn_arguments(self, due: bool = True) -> tuple:
+        """The arguments of :func:`~flagellum.hydro.dynamics.turn_into` after ΔM: a rigid
+        rotation of the frozen beads about bead 0 turns ΔM where it leaves at most
+        ``refresh`` (``due``: :data:`DUE_TURN_RESIDUAL` of it) and turns no bond past the turn
+        limit; about e_z only on a load sphere or with a free swimmer's sphere, which sits at
+        x_0 + a e_z."""
+        b = self.boundary
+        anchor = _ANCHOR[b.anchor]
+        about_z = anchor == K.ANCHOR_SPHERE or (b.anchor != "fixed" and bool(b.sphere_radius))
+        within = self.hydrodynamics.refresh * (DUE_TURN_RESIDUAL if due else 1.0)
+        return (float(within), float(self.turn_limit * self.h), bool(about_z),
+                anchor == K.ANCHOR_FIXED, self.n + 1)
+
+    def build_arguments(self) -> tuple:
+        """The arguments of ΔM's compiled build after the positions
+        (:func:`~flagellum.hydro.dynamics.build_arguments`; not for a cell body)."""
+        fluid = self.params.fluid
+        return build_arguments(self.n, self.h, self.gammas, _ANCHOR[self.boundary.anchor],
+                               self.sphere_drag, fluid.filament_radius, fluid.viscosity,
+                               self.boundary.sphere_radius or 0.0, self.symmetric_mobility)
 
     @property
     def frozen_beads(self) -> np.ndarray | None:
@@ -418,10 +436,17 @@ class RodModel:
         if self.cell:
             ml = cell_local_mobility(x, h, gpar, gperp, self.params.fluid.viscosity,
                                      self._cell_body(self._mobility_points(y)))
-            return ml + self._ws[-1], np.ones(len(ml), bool)
+            return ml + self.applied_correction, np.ones(len(ml), bool)
         anchor, zeta = self.mobility_arguments()[2:4]
-        return (local_mobility(x, h, gpar, gperp, anchor, zeta) + self._ws[-1],
+        return (local_mobility(x, h, gpar, gperp, anchor, zeta) + self.applied_correction,
                 moving_components(anchor, len(x)))
+
+    @property
+    def applied_correction(self) -> np.ndarray:
+        """The ΔM the kernel applies now: the workspace's DM plus prm[P_SECANT] times its DG
+        (a secant model's slope, set by the BDF per right-hand side)."""
+        w = float(self.prm[K.P_SECANT])
+        return self._ws[-1] + w * self._ws[-2] if w else self._ws[-1].copy()
 
     def _correction(self, x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """ΔM at the mobility points x (:meth:`_mobility_points`), into ``out`` if given."""
@@ -594,4 +619,5 @@ class _Workspace(NamedTuple):
     V: np.ndarray
     A1: np.ndarray
     CW: np.ndarray
+    DG: np.ndarray
     DM: np.ndarray

@@ -74,6 +74,24 @@ def test_free_filament_mobility_is_sbt_and_anchor_removes_bead_zero():
     assert np.all(Ma[:2] == 0) and Ma[2, 2] > 0
 
 
+def test_small_constraint_solve_matches_lapack_and_refuses_a_singular_matrix():
+    """The constraints' k×k solve (partial pivoting) against numpy's LAPACK solve, with a zero
+    leading pivot that needs a row swap; a singular matrix is refused, not divided by zero."""
+    from flagellum.hydro.dynamics import _solve_small
+
+    rng = np.random.default_rng(5)
+    for k in (1, 3, 6, 8):
+        a = rng.normal(size=(k, k))
+        if k > 1:
+            a[0, 0] = 0.0
+        b = rng.normal(size=(k, 40))
+        want = np.linalg.solve(a, b)
+        got = _solve_small(a.copy(), b.copy())
+        assert np.allclose(got, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
+    with pytest.raises(np.linalg.LinAlgError):
+        _solve_small(np.zeros((3, 3)), np.ones((3, 2)))
+
+
 def _pinned_sbt(params):
     """Rigid-helix thrust/torque of the simulator's discrete helix pinned at bead 0 with the
     nonlocal mobility of hydro.sbt (bond spins and hook frame local, as in the simulator and

@@ -116,78 +116,128 @@ def _segment_kernel(x, eps, cutoff, K, scale):
     ∫ σᵏ/ρ (k = 0, 1) and ∫ σᵏ/ρ³ (k = 0…3), here in cancellation-free closed forms. A
     block is m0 p pᵀ − m1 (p eᵀ + e pᵀ) + m2 e eᵀ + iso·1 with the hat-weighted moments m;
     the first bead's is the whole segment's minus the second's (the weights sum to 1), and
-    the second bead's is carried to the next segment's first: one pass writes each block.
+    the second bead's is carried to the next segment's first: each block written once.
+
+    For each target bead three passes over the segments: the geometry and the logarithm's
+    argument, the logarithms, the blocks. A library call inside the arithmetic loop made
+    the compiler save and reload its registers around every call: one loop took 135 µs at
+    N = 50, the passes 80 µs (docs/hydrodynamics.md, "Cost").
     """
     n1 = x.shape[0]
     n = n1 - 1
-    ell = np.empty(n)
-    e = np.empty((n, 3))
+    geo = np.empty((9, n))  # e (3), the segment's first point (3), ε², ℓ, 1/ℓ
     arc = np.zeros(n1)
     for j in range(n):
         d0, d1, d2 = x[j + 1, 0] - x[j, 0], x[j + 1, 1] - x[j, 1], x[j + 1, 2] - x[j, 2]
-        ell[j] = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-        e[j, 0], e[j, 1], e[j, 2] = d0 / ell[j], d1 / ell[j], d2 / ell[j]
-        arc[j + 1] = arc[j] + ell[j]
+        ell = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        iv = 1.0 / ell
+        geo[0, j], geo[1, j], geo[2, j] = d0 * iv, d1 * iv, d2 * iv
+        geo[3, j], geo[4, j], geo[5, j] = x[j, 0], x[j, 1], x[j, 2]
+        geo[6, j], geo[7, j], geo[8, j] = eps[j] * eps[j], ell, iv
+        arc[j + 1] = arc[j] + ell
+    span = np.empty((2, n))  # the part [lo, hi] of each segment integrated over
+    work = np.empty((10, n))
+    out = np.empty((12, n))  # per segment: the first bead's block, the second's
     for i in range(n1):
-        # the second bead's block of the previous segment (its six distinct entries)
-        c00 = c01 = c02 = c11 = c12 = c22 = 0.0
-        xi0, xi1, xi2 = x[i, 0], x[i, 1], x[i, 2]
-        for j in range(n):
-            e0, e1, e2 = e[j, 0], e[j, 1], e[j, 2]
-            r0, r1, r2 = xi0 - x[j, 0], xi1 - x[j, 1], xi2 - x[j, 2]
-            b = r0 * e0 + r1 * e1 + r2 * e2
-            p0, p1, p2 = r0 - b * e0, r1 - b * e1, r2 - b * e2
-            eps2 = eps[j] * eps[j]
-            c2 = p0 * p0 + p1 * p1 + p2 * p2 + eps2
-            lo, hi = 0.0, ell[j]
-            if cutoff >= 0.0:  # the part of segment j within arc length `cutoff` of bead i
+        if cutoff >= 0.0:  # the part of segment j within arc length `cutoff` of bead i
+            for j in range(n):
                 rel = arc[i] - arc[j]
-                lo = min(max(rel - cutoff, 0.0), ell[j])
-                hi = min(max(rel + cutoff, 0.0), ell[j])
-            s0, s1 = lo - b, hi - b
-            q0, q1 = math.sqrt(s0 * s0 + c2), math.sqrt(s1 * s1 + c2)
-            J1 = (s1 - s0) * (s1 + s0) / (q1 + q0)  # ρ1 − ρ0
-            # J0 = asinh(s1/c) − asinh(s0/c), one logarithm and no cancellation: asinh(s/c)
-            # = ±ln((|s| + ρ)/c), so for ends on one side the ratio − 1 is (s1 − s0 ± J1)
-            # over the nearer end's |s| + ρ
-            if s0 >= 0.0:
-                J0 = math.log1p((s1 - s0 + J1) / (s0 + q0))
-            elif s1 <= 0.0:
-                J0 = math.log1p((s1 - s0 - J1) / (q1 - s1))
-            else:
-                J0 = math.log((s1 + q1) * (q0 - s0) / c2)
-            # σ/(c²ρ) = sgn σ (1/c² − 1/(ρ(ρ + |σ|))): no cancellation when both ends lie on one side
-            iq0, iq1 = 1.0 / q0, 1.0 / q1
-            g1 = 1.0 if s1 > 0.0 else (-1.0 if s1 < 0.0 else 0.0)
-            g0 = 1.0 if s0 > 0.0 else (-1.0 if s0 < 0.0 else 0.0)
-            K0 = (g1 - g0) / c2 - (g1 * iq1 / (q1 + abs(s1)) - g0 * iq0 / (q0 + abs(s0)))
-            K1 = J1 * iq0 * iq1
-            K2 = J0 - (s1 * iq1 - s0 * iq0)
-            K3 = J1 - c2 * K1
-            # the second bead's hat weight (b + σ)/ℓ_j
-            inv = 1.0 / ell[j]
-            be0 = b * inv
-            m0, m1, m2 = be0 * K0 + inv * K1, be0 * K1 + inv * K2, be0 * K2 + inv * K3
-            iso = be0 * J0 + inv * J1 + eps2 * m0
-            f0, f1, f2 = m0 * p0 - m1 * e0, m0 * p1 - m1 * e1, m0 * p2 - m1 * e2
-            h0, h1, h2 = m2 * e0 - m1 * p0, m2 * e1 - m1 * p1, m2 * e2 - m1 * p2
-            n00, n01, n02 = f0 * p0 + h0 * e0 + iso, f0 * p1 + h0 * e1, f0 * p2 + h0 * e2
-            n11, n12, n22 = f1 * p1 + h1 * e1 + iso, f1 * p2 + h1 * e2, f2 * p2 + h2 * e2 + iso
-            # the whole segment (weight 1) minus the second bead's: the first bead's
-            isot = J0 + eps2 * K0
-            f0, f1, f2 = K0 * p0 - K1 * e0, K0 * p1 - K1 * e1, K0 * p2 - K1 * e2
-            h0, h1, h2 = K2 * e0 - K1 * p0, K2 * e1 - K1 * p1, K2 * e2 - K1 * p2
-            sk = scale[j]
-            v00 = (f0 * p0 + h0 * e0 + isot - n00 + c00) * sk
-            v01 = (f0 * p1 + h0 * e1 - n01 + c01) * sk
-            v02 = (f0 * p2 + h0 * e2 - n02 + c02) * sk
-            v11 = (f1 * p1 + h1 * e1 + isot - n11 + c11) * sk
-            v12 = (f1 * p2 + h1 * e2 - n12 + c12) * sk
-            v22 = (f2 * p2 + h2 * e2 + isot - n22 + c22) * sk
-            _write_block(K, 3 * i, 3 * j, v00, v01, v02, v11, v12, v22)
-            c00, c01, c02, c11, c12, c22 = n00, n01, n02, n11, n12, n22
-        sk = scale[n]
-        _write_block(K, 3 * i, 3 * n, c00 * sk, c01 * sk, c02 * sk, c11 * sk, c12 * sk, c22 * sk)
+                span[0, j] = min(max(rel - cutoff, 0.0), geo[7, j])
+                span[1, j] = min(max(rel + cutoff, 0.0), geo[7, j])
+        else:
+            for j in range(n):
+                span[0, j], span[1, j] = 0.0, geo[7, j]
+        _segment_moments(x[i, 0], x[i, 1], x[i, 2], geo, span, work, n)
+        for j in range(n):
+            work[5, j] = math.log1p(work[5, j])
+        _segment_blocks(geo, work, out, n)
+        r = 3 * i
+        for k in range(n1):
+            a0 = a1 = a2 = a3 = a4 = a5 = 0.0
+            if k < n:
+                a0, a1, a2, a3, a4, a5 = out[0, k], out[1, k], out[2, k], out[3, k], out[4, k], out[5, k]
+            if k > 0:
+                a0 += out[6, k - 1]
+                a1 += out[7, k - 1]
+                a2 += out[8, k - 1]
+                a3 += out[9, k - 1]
+                a4 += out[10, k - 1]
+                a5 += out[11, k - 1]
+            sk = scale[k]
+            _write_block(K, r, 3 * k, a0 * sk, a1 * sk, a2 * sk, a3 * sk, a4 * sk, a5 * sk)
+
+
+@njit(cache=True, error_model="numpy")
+def _segment_moments(xi0, xi1, xi2, geo, span, work, n):
+    """The first pass of :func:`_segment_kernel` for the target (xi0, xi1, xi2): per segment
+    p (rows 0–2), b, c², the argument of J0's log1p (row 5), J1, K0, K1 and
+    s1/ρ1 − s0/ρ0 into ``work``."""
+    for j in range(n):
+        e0, e1, e2 = geo[0, j], geo[1, j], geo[2, j]
+        r0, r1, r2 = xi0 - geo[3, j], xi1 - geo[4, j], xi2 - geo[5, j]
+        b = r0 * e0 + r1 * e1 + r2 * e2
+        p0, p1, p2 = r0 - b * e0, r1 - b * e1, r2 - b * e2
+        c2 = p0 * p0 + p1 * p1 + p2 * p2 + geo[6, j]
+        s0, s1 = span[0, j] - b, span[1, j] - b
+        q0, q1 = math.sqrt(s0 * s0 + c2), math.sqrt(s1 * s1 + c2)
+        t0, t1 = q0 + abs(s0), q1 + abs(s1)
+        # two divisions for the seven reciprocals
+        qq, qs, tt = q0 * q1, q0 + q1, t0 * t1
+        ra, rb = 1.0 / (qq * qs), 1.0 / (tt * c2)
+        iq = qs * ra  # 1/(ρ0 ρ1)
+        iq0, iq1 = q1 * iq, q0 * iq
+        it = c2 * rb  # 1/(t0 t1)
+        it0, it1 = t1 * it, t0 * it
+        J1 = (s1 - s0) * (s1 + s0) * (qq * ra)  # ρ1 − ρ0
+        # J0 = asinh(s1/c) − asinh(s0/c) = log1p(arg), no cancellation: asinh(s/c)
+        # = ±ln((|s| + ρ)/c), so for ends on one side arg is (s1 − s0 ± J1) over the nearer
+        # end's |s| + ρ
+        work[5, j] = ((s1 - s0 + J1) * it0 if s0 >= 0.0 else
+                      ((s1 - s0 - J1) * it1 if s1 <= 0.0 else
+                       (s1 + q1) * (q0 - s0) * (tt * rb) - 1.0))
+        # σ/(c²ρ) = sgn σ (1/c² − 1/(ρ(ρ + |σ|))): no cancellation when both ends lie on one side
+        g1 = 1.0 if s1 > 0.0 else (-1.0 if s1 < 0.0 else 0.0)
+        g0 = 1.0 if s0 > 0.0 else (-1.0 if s0 < 0.0 else 0.0)
+        work[7, j] = (g1 - g0) * (tt * rb) - (g1 * iq1 * it1 - g0 * iq0 * it0)  # K0
+        work[8, j] = J1 * iq  # K1
+        work[9, j] = s1 * iq1 - s0 * iq0
+        work[6, j] = J1
+        work[0, j], work[1, j], work[2, j], work[3, j], work[4, j] = p0, p1, p2, b, c2
+
+
+@njit(cache=True, error_model="numpy")
+def _segment_blocks(geo, work, out, n):
+    """The last pass of :func:`_segment_kernel`: from the moments (``work``, J0 in row 5) the
+    six distinct entries of each segment's first-bead block (rows 0–5 of ``out``) and its
+    second-bead block (rows 6–11)."""
+    for j in range(n):
+        e0, e1, e2 = geo[0, j], geo[1, j], geo[2, j]
+        p0, p1, p2 = work[0, j], work[1, j], work[2, j]
+        J0, J1, K0, K1 = work[5, j], work[6, j], work[7, j], work[8, j]
+        eps2 = geo[6, j]
+        K2 = J0 - work[9, j]
+        K3 = J1 - work[4, j] * K1
+        # the second bead's hat weight (b + σ)/ℓ_j
+        inv = geo[8, j]
+        be0 = work[3, j] * inv
+        m0, m1, m2 = be0 * K0 + inv * K1, be0 * K1 + inv * K2, be0 * K2 + inv * K3
+        iso = be0 * J0 + inv * J1 + eps2 * m0
+        f0, f1, f2 = m0 * p0 - m1 * e0, m0 * p1 - m1 * e1, m0 * p2 - m1 * e2
+        h0, h1, h2 = m2 * e0 - m1 * p0, m2 * e1 - m1 * p1, m2 * e2 - m1 * p2
+        n00, n01, n02 = f0 * p0 + h0 * e0 + iso, f0 * p1 + h0 * e1, f0 * p2 + h0 * e2
+        n11, n12, n22 = f1 * p1 + h1 * e1 + iso, f1 * p2 + h1 * e2, f2 * p2 + h2 * e2 + iso
+        # the whole segment (weight 1) minus the second bead's: the first bead's
+        isot = J0 + eps2 * K0
+        f0, f1, f2 = K0 * p0 - K1 * e0, K0 * p1 - K1 * e1, K0 * p2 - K1 * e2
+        h0, h1, h2 = K2 * e0 - K1 * p0, K2 * e1 - K1 * p1, K2 * e2 - K1 * p2
+        out[0, j] = f0 * p0 + h0 * e0 + isot - n00
+        out[1, j] = f0 * p1 + h0 * e1 - n01
+        out[2, j] = f0 * p2 + h0 * e2 - n02
+        out[3, j] = f1 * p1 + h1 * e1 + isot - n11
+        out[4, j] = f1 * p2 + h1 * e2 - n12
+        out[5, j] = f2 * p2 + h2 * e2 + isot - n22
+        out[6, j], out[7, j], out[8, j] = n00, n01, n02
+        out[9, j], out[10, j], out[11, j] = n11, n12, n22
 
 
 @njit(cache=True, inline="always")

@@ -9,7 +9,8 @@ from flagellum.helix import discrete_helix
 from flagellum.hydro import dynamics as D
 from flagellum.hydro import local as L
 from flagellum.hydro.options import Hydrodynamics
-from flagellum.integrate.frozen import R_ACTIVE, W_HI, FrozenMobility, secant_mobility
+from flagellum.integrate.frozen import (QUAD_W2, R_ACTIVE, R_HIST, W_HI, FrozenMobility, secant_after,
+                                        secant_mobility)
 from flagellum.motor import Boundary, Motor
 from flagellum.params import Filament, Params
 from flagellum.simulator import Simulator, SolverOptions
@@ -88,6 +89,54 @@ def test_secant_model_is_exact_at_both_renewals_and_linear_between():
     assert np.allclose(dm, new + W_HI * G)  # off: left as it is
 
 
+@pytest.mark.parametrize("carry", [False, True])
+def test_secant_slope_is_the_chord_to_the_quadratic_through_three_renewals(carry):
+    """Renewals of a ΔM that is exactly quadratic in the arc s along a straight bead path
+    x(s) = x_0 + s d, at unequal intervals s = 0, 0.7, 1.7: one interval on (w = 1, s = 2.7)
+    the model equals that quadratic (the chord from its start to the quadratic's value, by
+    Newton's divided differences with the renewal before last at w₂ = −1.7), where the new
+    model starts from the old one's value (``carry``: the beads went on as before); halfway it
+    is the chord's midpoint. Where the new model starts at the renewal instead (the beads did
+    not go on as before), without the renewal before last in the history, or with w₂ outside
+    QUAD_W2, the model is the secant of the last two renewals (linear extrapolation)."""
+    rng = np.random.default_rng(11)
+    n1, size = 5, 6
+    x0, d = rng.normal(size=3 * n1), rng.normal(size=3 * n1)
+    S0, S1, S2 = (rng.normal(size=(size, size)) for _ in range(3))
+
+    def S(s):  # exactly quadratic in s
+        return S0 + s * S1 + s * s * S2
+
+    s_older, s_prev, s_new = 0.0, 0.7, 1.7
+    C = S(s_new) + rng.normal(size=(size, size)) * 1e-2  # the old model's value there
+    w_star = 0.9
+
+    def renew(history, x_older_s):
+        dm = S(s_new).copy()
+        sample, older = S(s_prev).copy(), S(s_older).copy()
+        base = C - w_star * np.ones((size, size))  # so that base + w* G = C with G = 1
+        G = np.ones((size, size))
+        xu, rp = np.zeros((2, 3 * n1)), np.array([1.0, 0.0, history])
+        x_older = x0 + x_older_s * d
+        secant_after(dm, sample, base, G, xu, rp, x0 + s_prev * d, x0 + s_new * d, carry,
+                     w_star, older, x_older)
+        assert np.allclose(sample, S(s_new)) and np.allclose(older, S(s_prev))
+        return dm, G, rp
+
+    start = C if carry else S(s_new)
+    linear = 2 * S(s_new) - S(s_prev)  # the secant's extrapolation (of S(s_new) at w = 0)
+    dm, G, rp = renew(2.0, s_older)
+    assert rp[R_HIST] == 3.0 and np.allclose(dm, start)
+    want = S(s_new + 1.0) if carry else linear  # w = 1: the quadratic
+    assert np.allclose(dm + G, want, rtol=0, atol=1e-10)
+    assert np.allclose(dm + 0.5 * G, 0.5 * (start + want), rtol=0, atol=1e-10)
+    assert not np.allclose(S(s_new + 1.0), linear, rtol=0, atol=1e-3)  # (the two differ)
+    far = s_new + (QUAD_W2[0] - 0.5) * (s_new - s_prev)  # w₂ below QUAD_W2
+    for history, s_o in ((1.0, s_older), (2.0, far)):
+        dm, G, _ = renew(history, s_o)
+        assert np.allclose(dm + G, linear, rtol=0, atol=1e-10)
+
+
 def test_secant_model_of_the_correction_is_second_order_along_the_path():
     """Along a straight bead path x(s) = x_0 + s d, renewed at s = 0 and s = 1: at s = 1.5,
     half an interval past the last renewal (where the stepper applies it), the secant
@@ -153,7 +202,7 @@ def test_bdf_compiled_renewals_are_those_of_the_python_loop(boundary):
 
     out = []
     for compiled in (True, False):
-        m = RodModel(SHORT, Motor(1.5), boundary, hydrodynamics=Hydrodynamics("sbt"))
+        m = RodModel(SHORT, Motor(1.5), boundary, hydrodynamics=Hydrodynamics("sbt", refresh=0.02))
         y0 = m.initial_state()
         s = BdfStepper(m, 0.0, y0)
         renewals = []
@@ -280,13 +329,15 @@ def test_a_rigid_turn_renews_the_last_renewal_turned_and_the_model_does_not_jump
     R S1 Rᵀ, which is ΔM at the turned beads (Stokes flow is isotropic), taken from S1
     itself, not from the secant model's value at some state. The model goes on from its
     value at the turned beads (no jump) and reaches the secant's extrapolation 2 S2 − S1 one
-    interval on."""
+    interval on: with the renewal before it in the history, the quadratic through the three
+    (the chord slope of :func:`secant_after`)."""
     from flagellum.rod.model import RodModel, positions
 
     m = RodModel(SHORT, hydrodynamics=Hydrodynamics("sbt"))
     y0 = m.initial_state()
     fm = FrozenMobility(m)
     m.refresh_mobility(y0, force=True)
+    s0 = m.kernel_arrays[-1][-1].copy()
     c, s_ = np.cos(0.05), np.sin(0.05)
     R = np.array([[c, -s_, 0.0], [s_, c, 0.0], [0.0, 0.0, 1.0]])
     x0 = positions(y0)
@@ -305,8 +356,13 @@ def test_a_rigid_turn_renews_the_last_renewal_turned_and_the_model_does_not_jump
     assert np.allclose(fm.arrays[2][0], positions(y2).ravel())
     fm.apply(y2)
     assert np.abs(dm - before).max() < 1e-12 * scale  # no jump
-    fm.apply(_state(m, 2 * positions(y2) - positions(y1)))  # one interval on along d
-    assert np.abs(dm - (2 * s2 - s1)).max() < 1e-9 * scale
+    x0, x1, x2 = x0, positions(y1), positions(y2)
+    fm.apply(_state(m, 2 * x2 - x1))  # one interval on along d
+    dd = x2 - x1
+    w2 = np.sum(dd * (x0 - x2)) / np.sum(dd * dd)  # the renewal before last, about −2
+    assert QUAD_W2[0] <= w2 <= QUAD_W2[1]
+    quad = 2 * s2 - s1 + 2 * ((s2 - s1) - (s1 - s0) / (-1 - w2)) / (-w2)
+    assert np.abs(dm - quad).max() < 1e-9 * scale
 
 
 def test_a_renewal_off_the_secant_restarts_the_model_at_the_renewed_correction():

@@ -9,7 +9,7 @@ from ..params import check_choice, check_range
 
 MODELS = ("rft", "sbt")
 #: default ``refresh``: rebuild ΔM when a bead has moved this far [µm] (docs/hydrodynamics.md)
-REFRESH = 0.02
+REFRESH = 0.04
 
 
 @dataclass(frozen=True)

@@ -20,13 +20,19 @@ each kink of what the kernel applies costs the BDF rejected steps and its high o
     ΔM(y) = B_k + w(y) G_k,   w(y) = d · (x(y) − x_k) / |d|²,
 
 d = x_k − x_{k−1} the beads' displacement between the last two renewals (x the bead
-positions). One interval on (w = 1) it is the secant's extrapolation 2 S_k − S_{k−1} of the
-renewed ΔM's S: ΔM's first-order change along the direction the beads last moved. It starts
-(w = 0) from the old model's value at the renewal, so the right-hand side does not jump,
-where the beads went on about as before (:data:`CONTINUE_W`), else from S_k, with a jump of
-the secant's second-order error (:meth:`FrozenMobility.renew`). It is a function of the
-state alone, with no lag behind the shape (a time ramp from one ΔM to the next lags by a
-whole interval). ``w`` is held within [:data:`W_LO`, :data:`W_HI`]. CVODE's Python
+positions). One interval on (w = 1) it is the extrapolation of the renewed ΔM's S along
+the direction the beads last moved: the quadratic through the last three renewals (S_k at
+w = 0, S_k−1 at −1, S_k−2 where its beads project on d), or the secant 2 S_k − S_{k−1} of
+the last two where the history is shorter or the beads turned away (:func:`secant_after`);
+the model is the chord to that point, linear in w. The quadratic's end point put the
+time-averaged errors 2–8 times closer to the unfrozen splitting at the same refresh
+distance in four of five regimes (docs/hydrodynamics.md, "Accuracy and cost of the
+splitting"). It starts (w = 0) from the old model's value at the renewal, so the
+right-hand side does not jump, where the beads went on about as before
+(:data:`CONTINUE_W`), else from S_k, with a jump of the extrapolation's error
+(:meth:`FrozenMobility.renew`). It is a function of the state alone, with no lag behind
+the shape (a time ramp from one ΔM to the next lags by a whole interval). ``w`` is held
+within [:data:`W_LO`, :data:`W_HI`]. CVODE's Python
 callback writes the model's value into the kernels' ΔM per right-hand side
 (:func:`secant_mobility`); the BDF's compiled right-hand side only sets w
 (:func:`secant_weight`, the kernels' prm[P_SECANT]) and the kernel applies B_k F + w (G_k F),
@@ -45,8 +51,10 @@ from ..rod.kernels import P_SECANT
 from ..rod.model import positions as m_positions
 
 #: the secant parameters (the float array of :func:`secant_mobility`): whether the secant
-#: model is on (1; 0: ΔM stays as built), and the w it applied last (NaN: none yet)
-R_ACTIVE, R_W = range(2)
+#: model is on (1; 0: ΔM stays as built), the w it applied last (NaN: none yet), and how
+#: many renewals in a row on one trajectory the history holds (the last, and the one before:
+#: 2 lets the next renewal fit its quadratic)
+R_ACTIVE, R_W, R_HIST = range(3)
 #: the range w is held to: w = 0 at the last renewal, −1 at the one before; the next renewal
 #: comes near w = 1
 W_LO, W_HI = -1.5, 2.5
@@ -56,6 +64,10 @@ W_LO, W_HI = -1.5, 2.5
 TARGET_USE = 1.0
 EARLY_USE = 1.5
 PLAN_GROWTH, PLAN_SHRINK = 1.25, 0.25
+#: the range of the position w₂ of the renewal before last (on the axis of the last
+#: displacement, the last renewal at −1) within which the slope takes the quadratic's
+#: curvature: roughly the same direction and interval as the last one
+QUAD_W2 = (-3.0, -1.25)
 #: the range of the old model's w at a renewal within which the new model continues from the
 #: old one's value (no jump; the old error carried on, times 1 − w, at most ½)
 CONTINUE_W = (0.5, 1.5)
@@ -103,46 +115,68 @@ def secant_before(y, dm, sample, xu, rp):
     """The first half of :meth:`FrozenMobility.renew`, before ΔM is renewed: (carry, w*),
     the old model's w at y and whether the new model continues from its value there (w*
     within :data:`CONTINUE_W`). (Re)started (model off), ``sample`` := ``dm``, the ΔM built
-    last: the one a renewal compares with and turns, and the secant's start."""
+    last: the one a renewal compares with and turns, and the secant's start (a history of
+    one)."""
     if rp[R_ACTIVE] == 0.0:
         m = dm.shape[0]
         for i in range(m):
             for j in range(m):
                 sample[i, j] = dm[i, j]
+        rp[R_HIST] = 1.0
         return False, 0.0
     w = _secant_w(y, xu)
     return CONTINUE_W[0] <= w <= CONTINUE_W[1], w
 
 
 @njit(cache=True)
-def secant_after(dm, sample, base, G, xu, rp, x_prev, x_new, carry, w_star):
+def secant_after(dm, sample, base, G, xu, rp, x_prev, x_new, carry, w_star, older, x_older):
     """The second half of :meth:`FrozenMobility.renew`, ΔM renewed in ``dm`` (S_k+1) at the
-    beads ``x_new`` (flat), the last renewal S_k (``sample``) at ``x_prev``, in one pass: the
-    new model's slope G = S_k+1 − S_k and base S_k+1, or with ``carry`` its base
-    C = base + w* G (the old model's value at the renewal) and slope S_k+1 − S_k − (C − S_k+1);
-    ``dm`` := the base (the model at w = 0), ``sample`` := S_k+1, (x_k, d/|d|²) set and the
-    model on."""
+    beads ``x_new`` (flat), the last renewal S_k (``sample``) at ``x_prev``, the one before,
+    S_k−1 (``older``), at ``x_older``, in one pass. The slope is the chord from the model's
+    start to the quadratic through the three renewals one interval on: on the axis
+    w = d · (x − x_k+1)/|d|² (d = x_k+1 − x_k; S_k at w = −1, S_k−1 at w₂), that quadratic is
+    P(w) = S_k+1 + w A + w (w + 1) Q with A = S_k+1 − S_k and
+    Q = (A − (S_k − S_k−1)/(−1 − w₂))/(−w₂), so G = P(1) − start = A + 2Q − (start − S_k+1).
+    The start is S_k+1, or with ``carry`` the old model's value C = base + w* G at the
+    renewal (no jump). Q is taken where the history holds S_k−1 on this trajectory, the old
+    model was carried (the beads went on as they did) and w₂ lies within :data:`QUAD_W2`;
+    else Q = 0 (the secant of the last two). ``dm`` := the base (the model at w = 0),
+    ``sample`` := S_k+1, ``older`` := S_k, (x_k+1, d/|d|²) set and the model on."""
     m = dm.shape[0]
-    for i in range(m):
-        for j in range(m):
-            s_new = dm[i, j]
-            g = s_new - sample[i, j]
-            b = s_new
-            if carry:
-                b = base[i, j] + w_star * G[i, j]
-                g -= b - s_new
-            G[i, j] = g
-            sample[i, j] = s_new
-            base[i, j] = b
-            dm[i, j] = b
     dd = 0.0
     for i in range(x_new.shape[0]):
         d = x_new[i] - x_prev[i]
         dd += d * d
+    cq, cs = 0.0, 0.0  # G += cq (A − cs (S_k − S_k−1)), the 2Q term
+    if carry and rp[R_HIST] >= 2.0 and dd > 0.0:
+        w2 = 0.0
+        for i in range(x_new.shape[0]):
+            w2 += (x_new[i] - x_prev[i]) * (x_older[i] - x_new[i])
+        w2 /= dd
+        if QUAD_W2[0] <= w2 <= QUAD_W2[1]:
+            cq, cs = 2.0 / (-w2), 1.0 / (-1.0 - w2)
+    for i in range(m):
+        for j in range(m):
+            s_new = dm[i, j]
+            s_old = sample[i, j]
+            g = s_new - s_old
+            b = s_new
+            if carry:
+                b = base[i, j] + w_star * G[i, j]
+                g -= b - s_new
+            if cq != 0.0:
+                g += cq * ((s_new - s_old) - cs * (s_old - older[i, j]))
+            older[i, j] = s_old
+            G[i, j] = g
+            sample[i, j] = s_new
+            base[i, j] = b
+            dm[i, j] = b
     for i in range(x_new.shape[0]):
+        x_older[i] = x_prev[i]
         xu[0, i] = x_new[i]
         xu[1, i] = (x_new[i] - x_prev[i]) / dd if dd > 0.0 else 0.0
     rp[R_ACTIVE], rp[R_W] = 1.0, 0.0
+    rp[R_HIST] = min(rp[R_HIST] + 1.0, 3.0)
 
 
 @njit(cache=True)
@@ -150,7 +184,7 @@ def renew_secant(y, x, dm, work, secant, frozen, turn, build):
     """:meth:`FrozenMobility.renew` compiled, for a model whose renewal is compiled (no cell
     body; :func:`~flagellum.hydro.dynamics.renew_into` with ``turn`` and ``build``): x the
     bead positions of y, ``work`` (sample, x_prev), ``secant`` (base, G, xu, rp)."""
-    sample, x_prev = work
+    sample, x_prev, older, x_older = work
     base, G, xu, rp = secant
     carry, w_star = secant_before(y, dm, sample, xu, rp)
     n1 = frozen.shape[0]
@@ -158,7 +192,8 @@ def renew_secant(y, x, dm, work, secant, frozen, turn, build):
         for a in range(3):
             x_prev[3 * i + a] = frozen[i, a]
     renew_into(x, frozen, sample, dm, turn, build)  # turned from the last renewal
-    secant_after(dm, sample, base, G, xu, rp, x_prev, frozen.ravel(), carry, w_star)
+    secant_after(dm, sample, base, G, xu, rp, x_prev, frozen.ravel(), carry, w_star, older,
+                 x_older)
 
 
 # the plan of renewals: F_LAST the time of the last one, F_PLAN the planned interval to the
@@ -213,10 +248,11 @@ class FrozenMobility:
         nb = model.n + 1 if self.active else 0
         # the slope G is the kernels' DG: the BDF applies ΔM as DM + w DG (DM = the base)
         G = model.kernel_arrays[-1][-2] if self.active else np.zeros((0, 0))
-        self.arrays = (np.zeros((size, size)), G, np.zeros((2, 3 * nb)), np.zeros(2))
+        self.arrays = (np.zeros((size, size)), G, np.zeros((2, 3 * nb)), np.zeros(3))
         #: the ΔM renewed last (turns and comparisons start from it) and the beads of the
-        #: last renewal (work arrays of :meth:`renew`)
-        self.work = (np.zeros((size, size)), np.zeros(3 * nb))
+        #: last renewal, the ΔM renewed before it and its beads (work arrays of :meth:`renew`)
+        self.work = (np.zeros((size, size)), np.zeros(3 * nb), np.zeros((size, size)),
+                     np.zeros(3 * nb))
         #: the plan of renewals (:data:`F_LAST`, :data:`F_PLAN`, :data:`F_COUNT`)
         self.plan = np.zeros(3)
         self._renewal = None  # (renewal_arguments, built at the first renewal)
@@ -253,7 +289,7 @@ class FrozenMobility:
 
     def _off(self) -> None:
         """The secant model off: ΔM applied as it is in DM."""
-        self.arrays[3][:] = (0.0, np.nan)
+        self.arrays[3][:] = (0.0, np.nan, 0.0)
         self.model.prm[P_SECANT] = 0.0
 
     def restart_at(self, t: float, y: np.ndarray) -> None:
@@ -289,7 +325,7 @@ class FrozenMobility:
             x[:] = m_positions(y)
             renew_secant(y, x, dm, self.work, self.arrays, m.frozen_beads, turn, build)
             return
-        sample, x_prev = self.work
+        sample, x_prev, older, x_older = self.work
         base, G, xu, rp = self.arrays
         active = rp[R_ACTIVE] != 0.0
         carry, w_star = secant_before(y, dm, sample, xu, rp)
@@ -298,7 +334,7 @@ class FrozenMobility:
         x_prev[:] = m.frozen_beads.ravel()
         m.refresh_mobility(y, due=True)
         secant_after(dm, sample, base, G, xu, rp, x_prev,
-                     np.ascontiguousarray(m.frozen_beads).ravel(), carry, w_star)
+                     np.ascontiguousarray(m.frozen_beads).ravel(), carry, w_star, older, x_older)
 
     def begin(self, t_from: float, y_from: np.ndarray, t: float) -> None:
         """Before advancing from (t_from, y_from) towards t: after a (re)start, the first

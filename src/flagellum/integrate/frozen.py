@@ -25,9 +25,9 @@ the direction the beads last moved: the quadratic through the last three renewal
 w = 0, S_k−1 at −1, S_k−2 where its beads project on d), or the secant 2 S_k − S_{k−1} of
 the last two where the history is shorter or the beads turned away (:func:`secant_after`);
 the model is the chord to that point, linear in w. The quadratic's end point put the
-time-averaged errors 2–8 times closer to the unfrozen splitting at the same refresh
-distance in four of five regimes (docs/hydrodynamics.md, "Accuracy and cost of the
-splitting"). It starts (w = 0) from the old model's value at the renewal, so the
+time-averaged errors 2–21 times closer to the unfrozen splitting at the same refresh
+distance in the buckled, load-sphere and M = 3 runs; from rest and for the free swimmer
+they moved both ways (docs/hydrodynamics.md, "Accuracy and cost of the splitting"). It starts (w = 0) from the old model's value at the renewal, so the
 right-hand side does not jump, where the beads went on about as before
 (:data:`CONTINUE_W`), else from S_k, with a jump of the extrapolation's error
 (:meth:`FrozenMobility.renew`). It is a function of the state alone, with no lag behind

@@ -45,6 +45,9 @@ from ..rod import kernels as K
 from .banded import band_factor, band_solve
 
 RFD_DELTA = 1e-6
+#: the error of a thermal step whose nonlocal mobility has no Cholesky factor
+NOT_POSITIVE = ("the nonlocal mobility is not positive definite at this state (beads closer "
+                "than the filament radius?)")
 #: Newton tolerance [µm, rad]: 100× below the local error of one step at the default Δt
 #: (≈ (ωΔt)² R/2 ≈ 1e-4 µm at M = 1, Δt = 5e-5 s); 1e-8 cost 20 % more iterations for nothing
 NEWTON_TOL = 1e-6
@@ -439,7 +442,7 @@ def nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen,
     components the anchor leaves free, the noise M_s ξ and the drift by random finite
     difference into ``b``; ``build`` the arguments of ΔM's compiled build (symmetric),
     ``ms`` scratch of ΔM's size. One call per step instead of a dozen numpy and scipy calls
-    from Python (a step 0.82 → 0.62 ms at N = 50, docs/hydrodynamics.md, "Thermal cost").
+    from Python (a step 0.82 → 0.60 ms at N = 50, docs/hydrodynamics.md, "Thermal cost").
     Raises numpy's LinAlgError where M_s is not positive definite."""
     n = iprm[K.I_N]
     n1 = n + 1
@@ -672,8 +675,7 @@ class ImplicitStepper:
                                    m.frozen_beads, self._fast[0], self._fast[1], b, w[6], w[7],
                                    w[8], w[9], K.general_flag(iprm))
             except np.linalg.LinAlgError:
-                raise SimulationError("the nonlocal mobility is not positive definite at "
-                                      "this state (beads closer than the filament radius?)") from None
+                raise SimulationError(NOT_POSITIVE) from None
             return b
         K.rechart_all(y, m.n, ref_u, ref_e, ws[0], ws[1], ws[2], ws[3], ws[4], ws[9])  # as the kernel
         m.refresh_mobility(y, force=True)
@@ -682,8 +684,7 @@ class ImplicitStepper:
         try:
             chol = np.linalg.cholesky(ms[np.ix_(free, free)])
         except np.linalg.LinAlgError:
-            raise SimulationError("the nonlocal mobility is not positive definite at "
-                                  "this state (beads closer than the filament radius?)") from None
+            raise SimulationError(NOT_POSITIVE) from None
         nh = 9 if m.cell else 3
         gq = g[:3 * n1]
         if m.cell:  # the slots (V, beads 1 … n, Ω): bead 0's normals and the body torque's

@@ -599,12 +599,7 @@ def turn_into(x, frozen, src, dm, within, bond, about_z, fixed, n1):
         for a in range(3):
             if abs((x[i, a] - turned[i, a]) - (x[i - 1, a] - turned[i - 1, a])) > bond:
                 return False
-    tmp = np.empty_like(dm)
-    _rotate_blocks(src, R, tmp)
-    m = dm.shape[0]
-    for i in range(m):
-        for j in range(m):
-            dm[i, j] = tmp[i, j]
+    _rotate_blocks(src, R, dm)  # block by block: ``dm`` may be ``src``
     for i in range(n):
         for a in range(3):
             frozen[i, a] = turned[i, a]

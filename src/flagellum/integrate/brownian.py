@@ -495,12 +495,14 @@ def nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen,
     for i in range(n1):
         for a in range(3):
             x[i, a] = yp[3 + 4 * i + a]
-    frozen_dm = dm.copy()
+    for i in range(m):  # ΔM(y) kept in ms (factorized already) while DM holds ΔM(y + δW)
+        for j in range(m):
+            ms[i, j] = dm[i, j]
     D._correction_into(x, *build, dm)
     _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1, general)
     for i in range(m):
         for j in range(m):
-            dm[i, j] = frozen_dm[i, j]
+            dm[i, j] = ms[i, j]
     _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1, general)
     f = dt * kT / RFD_DELTA
     for j in range(ny):

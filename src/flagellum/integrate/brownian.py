@@ -26,6 +26,9 @@ taken back by the bending within the step, and the step's end lies where a chord
 from y_n diverges). With noise the
 tolerance is a small fraction of the thermal step (:data:`THERMAL_TOL_FRACTION`).
 Random numbers come from numpy's PCG64 in chunks, so a stopped run resumes the same stream.
+A nonlocal mobility's ΔM, the Cholesky factor of M and its Itô drift are kept between
+renewals, as ΔM is in a deterministic run, with the noise corrected for the local part's
+change (:meth:`ImplicitStepper._nonlocal_increment`, docs/hydrodynamics.md, "Thermal noise").
 """
 
 from __future__ import annotations
@@ -59,6 +62,13 @@ THERMAL_TOL_FRACTION = 2e-3
 #: lengths: ΔM is frozen over the step, and a kick past the bond length makes the step's
 #: chord iteration fail (docs/hydrodynamics.md, "Thermal noise", "Step size")
 NONLOCAL_KICK_LIMIT = 1.0
+#: with a nonlocal mobility kept over thermal steps: renewed when a bond has changed by more
+#: than this fraction of the turn limit (the noise's correction for the local part is then
+#: third order in ‖S‖ ≲ 0.36, docs/hydrodynamics.md, "Thermal noise")
+THERMAL_TURN = 0.5
+#: …and after this many steps: one sample of the nonlocal Itô drift serves them all, and its
+#: scatter, held, raised a stiff rod's tilt diffusion by 0.15/0.43/0.63 % at 2/3/4 steps
+THERMAL_HOLD = 3
 
 
 def bead_kick(kT: float, dt: float, gperp: float, h: float) -> float:
@@ -433,17 +443,110 @@ def implicit_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT,
     return 0, n_steps, n_iter, n_jac, jac_age
 
 
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def _lower_solve(chol, z, k):
+    """z := L⁻¹ z, L = chol[:k, :k] lower triangular (rows read contiguously)."""
+    for i in range(k):
+        acc = z[i]
+        for j in range(i):
+            acc -= chol[i, j] * z[j]
+        z[i] = acc / chol[i, i]
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def _upper_solve_t(chol, z, k):
+    """z := L⁻ᵀ z, L = chol[:k, :k] lower triangular: column form, each step subtracting a
+    multiple of row i of L (read contiguously) from the unknowns before it."""
+    for i in range(k - 1, -1, -1):
+        zi = z[i] / chol[i, i]
+        z[i] = zi
+        for j in range(i):
+            z[j] -= chol[i, j] * zi
+
+
+@njit(cache=True)
+def _local_change(T, tm, n, h, gpar, gperp, anchor, zeta, f, out):
+    """out = E f, E = M_loc(T) − M_loc(tm) the change of the local mobility between the bond
+    tangents tm and T (block-diagonal, :func:`flagellum.hydro.local.bead_velocity`)."""
+    for i in range(n + 1):
+        fx, fy, fz = f[i, 0], f[i, 1], f[i, 2]
+        tx, ty, tz, zpar, zperp, mode = L.bead_friction(T, i, n, h, gpar, gperp, anchor, zeta)
+        ax, ay, az = L.bead_velocity(fx, fy, fz, tx, ty, tz, zpar, zperp, mode)
+        tx, ty, tz, zpar, zperp, mode = L.bead_friction(tm, i, n, h, gpar, gperp, anchor, zeta)
+        cx, cy, cz = L.bead_velocity(fx, fy, fz, tx, ty, tz, zpar, zperp, mode)
+        out[i, 0], out[i, 1], out[i, 2] = ax - cx, ay - cy, az - cz
+
+
+@njit(cache=True)
+def add_kept_terms(y, dt, drift, xi, frozen, build, chol, b, iprm, ref_u, ref_e, ws):
+    """b += Δt · (the nonlocal Itô drift kept from the renewal, ``drift``, per unit time in
+    the state's layout, plus the correction of the noise for the local mobility's change
+    since the renewal, −½ E ξ − ⅛ E M_s⁻¹ E ξ, of the bead forces ``xi`` (n+1, 3)).
+
+    E = M_loc(y) − M_loc(y*), y* the renewal's beads ``frozen``; M_s = M_s(y*) = L Lᵀ
+    (``chol``, over the components the anchor leaves free; ``build`` ΔM's build arguments).
+    :func:`thermal_increment` applies M_s' = M_s + E (the step's mobility) to
+    ξ = √(2kT/Δt) L⁻ᵀ g, whose covariance would be 2kT/Δt (M_s' + E + E M_s⁻¹ E): first
+    order off, a spurious drift. With the correction the noise is √(2kT/Δt) L (I + S/2 −
+    S²/8) g, S = L⁻¹ E L⁻ᵀ, the series of L (I + S)^{1/2}, of covariance
+    2kT/Δt (M_s' − L (S³/8 − S⁴/64) Lᵀ): third order in the bonds' turn since the renewal.
+    Bead velocities enter as positions and as the bond angles' rates −s_i·ṫ_i in y's charts
+    (every chart moves each step, :func:`flagellum.rod.kernels.rechart_all`)."""
+    n = iprm[K.I_N]
+    n1 = n + 1
+    h, gpar, gperp, anchor, zeta = build[1], build[2], build[3], build[4], build[5]
+    T, E1, E2, LEN, S, A1 = ws[0], ws[1], ws[2], ws[3], ws[4], ws[9]
+    K.frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1)
+    tm = D._bond_tangents(frozen)
+    ex = np.empty((n1, 3))
+    _local_change(T, tm, n, h, gpar, gperp, anchor, zeta, xi, ex)
+    # w = M_s⁻¹ E ξ over the free components: L z = E ξ, then Lᵀ w = z (row-wise)
+    nf = D.fixed_components(anchor)
+    k = 3 * n1 - nf
+    z = ex.reshape(3 * n1)[nf:].copy()
+    _lower_solve(chol, z, k)
+    _upper_solve_t(chol, z, k)
+    wv = np.zeros((n1, 3))
+    wf = wv.reshape(3 * n1)
+    for i in range(k):
+        wf[nf + i] = z[i]
+    ew = np.empty((n1, 3))
+    _local_change(T, tm, n, h, gpar, gperp, anchor, zeta, wv, ew)
+    v = np.empty((n1, 3))
+    for i in range(n1):
+        o = 3 + 4 * i
+        for a in range(3):
+            v[i, a] = drift[o + a] - 0.5 * ex[i, a] - 0.125 * ew[i, a]
+    for j in range(3):  # the hook frame and θ_0 as kept
+        b[j] += dt * drift[j]
+    b[6] += dt * drift[6]
+    for j in range(3 + 4 * n1, y.shape[0]):
+        b[j] += dt * drift[j]
+    for i in range(n1):
+        o = 3 + 4 * i
+        for a in range(3):
+            b[o + a] += dt * v[i, a]
+        if i > 0:
+            b[o + 3] -= dt * (S[i, 0] * (v[i, 0] - v[i - 1, 0]) + S[i, 1] * (v[i, 1] - v[i - 1, 1])
+                              + S[i, 2] * (v[i, 2] - v[i - 1, 2])) / LEN[i]
+
+
 @njit(cache=True)
 def nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen, build, ms, b,
-                       yp, ym, f1, f2, general):
+                       yp, ym, f1, f2, general, chol, drift, limits):
     """:meth:`ImplicitStepper._nonlocal_increment` compiled, for a filament without a cell
-    body (anchored, on a load sphere or a free swimmer's sphere): ΔM rebuilt at y (into the
-    workspace's DM, ``frozen`` := the beads), M_s = M_loc + ΔM factorized over the
-    components the anchor leaves free, the noise M_s ξ and the drift by random finite
-    difference into ``b``; ``build`` the arguments of ΔM's compiled build (symmetric),
+    body (anchored, on a load sphere or a free swimmer's sphere); returns whether it renewed
+    the mobility. Renewal (``limits`` = (refresh [µm], bond change [µm], force, steps since
+    the renewal, hold), the steps counted here): when ``refresh`` is 0, ``force`` is set,
+    the mobility has served ``hold`` steps, or the beads have used the limits since
+    ``frozen`` (:func:`flagellum.hydro.dynamics.limits_used`): ΔM rebuilt at y (into the workspace's DM,
+    ``frozen`` := the beads), M_s = M_loc + ΔM factorized over the components the anchor
+    leaves free (into ``chol``) and the nonlocal Itô drift by random finite difference (into
+    ``drift``, state layout, per unit time). Every step: the noise M ξ from the kept factor
+    and the drift into ``b``. ``build`` the arguments of ΔM's compiled build (symmetric),
     ``ms`` scratch of ΔM's size. One call per step instead of a dozen numpy and scipy calls
-    from Python (a step 0.82 → 0.60 ms at N = 50, docs/hydrodynamics.md, "Thermal cost").
-    Raises numpy's LinAlgError where M_s is not positive definite."""
+    from Python (docs/hydrodynamics.md, "Thermal cost"). Raises numpy's LinAlgError where
+    M_s is not positive definite."""
     n = iprm[K.I_N]
     n1 = n + 1
     ny = y.shape[0]
@@ -453,27 +556,33 @@ def nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen,
         for a in range(3):
             x[i, a] = y[3 + 4 * i + a]
     dm = ws[-1]
-    D._correction_into(x, *build, dm)
-    for i in range(n1):
-        for a in range(3):
-            frozen[i, a] = x[i, a]
     m = 3 * n1
-    for i in range(m):
-        for j in range(m):
-            ms[i, j] = dm[i, j]
     anchor = build[4]
-    D._fill_local(D._bond_tangents(x), n, build[1], build[2], build[3], anchor, build[5], ms, 1.0)
     nf = D.fixed_components(anchor)
-    chol = np.linalg.cholesky(ms[nf:, nf:])
+    k = m - nf
+    renew = limits[0] <= 0.0 or limits[2] != 0.0 or limits[3] >= limits[4] or \
+        D.limits_used(x, frozen, n1, limits[0], limits[1]) > 1.0
+    limits[3] = 1.0 if renew else limits[3] + 1.0
+    if renew:
+        D._correction_into(x, *build, dm)
+        for i in range(n1):
+            for a in range(3):
+                frozen[i, a] = x[i, a]
+        for i in range(m):
+            for j in range(m):
+                ms[i, j] = dm[i, j]
+        D._fill_local(D._bond_tangents(x), n, build[1], build[2], build[3], anchor, build[5], ms, 1.0)
+        c = np.linalg.cholesky(ms[nf:, nf:])
+        for i in range(k):
+            for j in range(k):
+                chol[i, j] = c[i, j]
     # ξ = √(2kT/Δt) L⁻ᵀ g over the free components (back substitution)
     c = math.sqrt(2.0 * kT / dt)
+    zq = g[nf:m].copy()
+    _upper_solve_t(chol, zq, k)
     xq = np.zeros(m)
-    k = m - nf
-    for i in range(k - 1, -1, -1):
-        acc = g[nf + i]
-        for j in range(i + 1, k):
-            acc -= chol[j, i] * xq[nf + j]
-        xq[nf + i] = acc / chol[i, i]
+    for i in range(k):
+        xq[nf + i] = zq[i]
     xi = np.empty((n1, 3))
     for i in range(n1):
         for a in range(3):
@@ -482,31 +591,62 @@ def nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen,
     zf, zm, zh = np.zeros((n1, 3)), np.zeros(n1), np.zeros(nh)
     thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, ym, f1, f2,
                       zf, zm, zh, np.zeros((n1, 3)), np.zeros(n1), np.zeros(nh), xi, general)
-    o = 4 * n1 + nh
-    for i in range(n1):
-        for a in range(3):
-            zf[i, a] = g[o + 3 + 4 * i + a] if 3 * i + a >= nf else 0.0
-        zm[i] = g[o + 3 + 4 * i + 3]
-    for j in range(ny):
-        yp[j] = y[j]
-    for i in range(n1):
-        for a in range(3):
-            yp[3 + 4 * i + a] += RFD_DELTA * zf[i, a]
-    for i in range(n1):
-        for a in range(3):
-            x[i, a] = yp[3 + 4 * i + a]
-    for i in range(m):  # ΔM(y) kept in ms (factorized already) while DM holds ΔM(y + δW)
-        for j in range(m):
-            ms[i, j] = dm[i, j]
-    D._correction_into(x, *build, dm)
-    _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1, general)
-    for i in range(m):
-        for j in range(m):
-            dm[i, j] = ms[i, j]
-    _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1, general)
-    f = dt * kT / RFD_DELTA
-    for j in range(ny):
-        b[j] += f * (f1[j] - f2[j])
+    if renew:
+        o = 4 * n1 + nh
+        for i in range(n1):
+            for a in range(3):
+                zf[i, a] = g[o + 3 + 4 * i + a] if 3 * i + a >= nf else 0.0
+            zm[i] = g[o + 3 + 4 * i + 3]
+        for j in range(ny):
+            yp[j] = y[j]
+        for i in range(n1):
+            for a in range(3):
+                yp[3 + 4 * i + a] += RFD_DELTA * zf[i, a]
+        for i in range(n1):
+            for a in range(3):
+                x[i, a] = yp[3 + 4 * i + a]
+        for i in range(m):  # ΔM(y) kept in ms while DM holds ΔM(y + δW)
+            for j in range(m):
+                ms[i, j] = dm[i, j]
+        D._correction_into(x, *build, dm)
+        _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1, general)
+        for i in range(m):
+            for j in range(m):
+                dm[i, j] = ms[i, j]
+        _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1, general)
+        f = kT / RFD_DELTA
+        for j in range(ny):
+            drift[j] = f * (f1[j] - f2[j])
+    add_kept_terms(y, dt, drift, xi, frozen, build, chol, b, iprm, ref_u, ref_e, ws)
+    return renew
+
+
+@njit(cache=True)
+def nonlocal_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT, torques, normals,
+                   ws, ab, ipiv, backup, jac_age, jac_every, work, xwork, tol, max_iter, slow, hist,
+                   colors, general, frozen, build, ms, chol, drift, limits, inc):
+    """:func:`implicit_steps` one step at a time, each after its thermal increment from
+    :func:`nonlocal_increment` at y_n (a filament without a cell body): one compiled call
+    per chunk of steps instead of two Python calls per step. ``inc`` (1, ny) scratch; the
+    arguments after ``general`` are :func:`nonlocal_increment`'s (``limits[2]``, the force
+    flag, is cleared after the first step). Returns (status, steps done, Newton
+    iterations, Jacobians, jac_age, renewals) with the status of :func:`implicit_steps`."""
+    n_iter, n_jac, renewals = 0, 0, 0
+    for j in range(n_steps):
+        if nonlocal_increment(y, dt, kT, normals[j], prm, iprm, ref_u, ref_e, ref_m, ws, frozen,
+                              build, ms, inc[0], work[6], work[7], work[8], work[9], general,
+                              chol, drift, limits):
+            renewals += 1
+        limits[2] = 0.0
+        status, _, it, nj, jac_age = implicit_steps(
+            y, t + j * dt, 1, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT, torques[j:j + 1],
+            normals[j:j + 1], ws, ab, ipiv, backup, jac_age, jac_every, work, xwork, tol,
+            max_iter, slow, hist, colors, inc, general)
+        n_iter += it
+        n_jac += nj
+        if status != 0:
+            return status, j, n_iter, n_jac, jac_age, renewals
+    return 0, n_steps, n_iter, n_jac, jac_age, renewals
 
 
 class ImplicitStepper:
@@ -561,6 +701,15 @@ class ImplicitStepper:
         self._checks = self.kT == 0 and model.iprm[K.I_HYDRO] != K.HYDRO_LOCAL
         self._no_increments = np.zeros((0, 0))
         self._fast = None  # (build arguments, scratch) of nonlocal_increment
+        # the thermal mobility kept between renewals: its Cholesky factor (and the free
+        # components), the Itô drift per unit time (state layout); renewed at the next step
+        # when None (a new or reset stepper)
+        self._kept = None
+        # nonlocal_increment's limits: refresh, bond change, renew now, steps since the
+        # renewal, THERMAL_HOLD
+        self._limits = np.zeros(5)
+        #: renewals of the thermal mobility (ΔM, its factor and drift) so far
+        self.n_renewals = 0
         #: without a cell body, the nonlocal increment in one compiled call
         #: (:func:`nonlocal_increment`; False: the numpy path a cell body takes)
         self.compiled_increment = True
@@ -598,6 +747,25 @@ class ImplicitStepper:
         self.y = np.array(y0, float)
         self._jac_age = -1
         self._hist = np.zeros(4)  # new right-hand side: no BDF2 history
+        self._kept = None  # a thermal nonlocal mobility: renewed at the next step
+
+    def carry(self, t0: float, y0: np.ndarray, transform=None, fresh_jacobian: bool = False,
+              frame_turned: bool = True) -> bool:
+        """Continue at (t0, y0) after a change of the state's coordinates (a chart
+        re-centred, the frame's rate changed): as :meth:`reset` (BDF2's history is not
+        carried: returns False), but a thermal nonlocal mobility kept between renewals stays
+        kept where only charts moved, for it depends on the bead positions alone, which a
+        chart leaves as they are (its drift's bond-angle rates are taken in the step's charts
+        anyway). Where the frame's rate changed the kept beads would have to turn with the
+        past: it is renewed, and a deterministic run's ΔM rebuilt, as at a reset."""
+        keep = self._nonlocal_noise and not frame_turned and self._kept is not None
+        if not keep:
+            self.model.refresh_mobility(y0, force=True)
+        kept = self._kept
+        self.reset(t0, y0)
+        if keep:
+            self._kept = kept
+        return False
 
     def advance(self, t: float) -> np.ndarray:
         span = t - self.t
@@ -619,6 +787,8 @@ class ImplicitStepper:
         return self.y
 
     def _steps(self, t0, k, dt, times, normals) -> int:
+        if self._nonlocal_noise and not self.model.cell and self.compiled_increment:
+            return self._compiled_steps(t0, k, dt, times, normals)
         if self._nonlocal_noise:  # one step at a time: the increment needs the mobility at y_n
             for j in range(k):
                 inc = self._nonlocal_increment(self.y, normals[j], dt)
@@ -647,51 +817,103 @@ class ImplicitStepper:
         self.n_jac += nj
         return done if status != 0 else k
 
+    def _fast_arguments(self):
+        """(build arguments, ΔM scratch, Cholesky factor, kept drift, limits) of
+        :func:`nonlocal_increment` (``limits[2]``: renew at the next step)."""
+        m = self.model
+        if self._fast is None:
+            ws = m.kernel_arrays[-1]
+            self._fast = (m.build_arguments(), np.empty_like(ws[-1]), np.empty_like(ws[-1]),
+                          np.zeros(len(self.y)))
+        self._limits[:3] = (m.hydrodynamics.refresh, THERMAL_TURN * m.turn_limit * m.h,
+                            float(self._kept is None))
+        self._limits[4] = THERMAL_HOLD
+        return (*self._fast, self._limits)
+
+    def _compiled_steps(self, t0, k, dt, times, normals) -> int:
+        m = self.model
+        torques = np.array([m.motor(s) for s in times])
+        build, scratch, chol, drift, limits = self._fast_arguments()
+        try:
+            status, done, it, nj, self._jac_age, renewals = nonlocal_steps(
+                self.y, t0, k, dt, self.theta, m.prm, m.iprm, m.ref_u, m.ref_e, m.ref_m, self.kT,
+                torques, np.ascontiguousarray(normals), m.kernel_arrays[-1], self._ab, self._ipiv,
+                self._backup, self._jac_age, self.jac_every, self._work, self._xwork, self.tol,
+                self.max_iter, self.slow, self._hist, m.jacobian_colors(self._kl, self._ku),
+                K.general_flag(m.iprm), m.frozen_beads, build, scratch, chol, drift, limits,
+                np.empty((1, len(self.y))))
+        except np.linalg.LinAlgError:
+            raise SimulationError(NOT_POSITIVE) from None
+        self._kept = True
+        self.n_steps += done
+        self.n_iter += it
+        self.n_jac += nj
+        self.n_renewals += renewals
+        return done if status != 0 else k
+
     def _nonlocal_increment(self, y, g, dt) -> np.ndarray:
         """Thermal increment b = Δt M ξ + Δt kT ∂·M of one step from y with the nonlocal
         mobility (docs/hydrodynamics.md, "Thermal noise").
 
-        M is rebuilt at y (its symmetric part M_s: :attr:`RodModel.symmetric_mobility`); the
-        generalized forces are ξ = √(2kT/Δt) L⁻ᵀ g with M_s = L Lᵀ (Cholesky, over the
-        components the anchor leaves free), so that M_s ξ = √(2kT/Δt) L g has the covariance
-        2kT M_s/Δt; spins and the hook frame keep their local noise. With a cell body M_s is
-        over its slots (V, beads 1 … n, Ω; :meth:`RodModel.mobility_matrix`): ξ's first and
-        last parts are the body's force and torque about its centre (from the normals of bead
-        0 and of the body's torque), bead 0 has none of its own, and a clamped hook's noise
-        keeps only its part about the motor axis (the part across it, the hook's friction
-        turning with the body, is in M_s). The Itô drift is the random finite difference
-        of :func:`thermal_increment` for the local part and the charts (ΔM held at y) plus
-        kT [ΔM(y + δW) − ΔM(y)] W/δ for the nonlocal correction (Delong et al. 2014), a
-        cell body's orientation among the perturbed coordinates.
+        Without a cell body the mobility is kept between renewals, as in a deterministic
+        run: it is renewed (ΔM rebuilt at y, its symmetric part M_s:
+        :attr:`RodModel.symmetric_mobility`) at the first step after construction or
+        :meth:`reset`, and when a bead has moved by more than ``hydrodynamics.refresh`` or a
+        bond by more than the turn limit since the last renewal
+        (:meth:`RodModel.mobility_use`; ``refresh`` 0: every step). A cell body's is renewed
+        at every step. At a renewal M_s = L Lᵀ is factorized (Cholesky, over the components
+        the anchor leaves free) and the Itô drift is sampled: the random finite difference
+        of :func:`thermal_increment` covers the local part and the charts (ΔM held),
+        kT [ΔM(y + δW) − ΔM(y)] W/δ the nonlocal correction (Delong et al. 2014; a cell
+        body's orientation among the perturbed coordinates), kept per unit time. Every step
+        draws ξ = √(2kT/Δt) L⁻ᵀ g from the kept factor and applies the mobility of the step
+        (M_loc at y, the kept ΔM), so that the noise has the covariance 2kT M_s/Δt at the
+        renewal's state; between renewals the local part's change is corrected to first
+        order and the kept drift is taken in the step's charts (:func:`add_kept_terms`).
+        Spins and the hook frame keep their local noise.
+        With a cell body M_s is over its slots
+        (V, beads 1 … n, Ω; :meth:`RodModel.mobility_matrix`): ξ's first and last parts are
+        the body's force and torque about its centre (from the normals of bead 0 and of the
+        body's torque), bead 0 has none of its own, and a clamped hook's noise keeps only its
+        part about the motor axis (the part across it, the hook's friction turning with the
+        body, is in M_s).
         """
         m = self.model
         prm, iprm, ref_u, ref_e, ref_m, _, _, _, ws = m.kernel_arrays
         n1 = m.n + 1
+        ny = len(y)
+        w = self._work
         if not m.cell and self.compiled_increment:
-            if self._fast is None:
-                self._fast = (m.build_arguments(), np.empty_like(ws[-1]))
-            w = self._work
-            b = np.empty(len(y))
+            build, scratch, chol, drift, limits = self._fast_arguments()
+            b = np.empty(ny)
             try:
-                nonlocal_increment(y, dt, self.kT, g, prm, iprm, ref_u, ref_e, ref_m, ws,
-                                   m.frozen_beads, self._fast[0], self._fast[1], b, w[6], w[7],
-                                   w[8], w[9], K.general_flag(iprm))
+                renewed = nonlocal_increment(y, dt, self.kT, g, prm, iprm, ref_u, ref_e, ref_m, ws,
+                                             m.frozen_beads, build, scratch, b, w[6], w[7], w[8],
+                                             w[9], K.general_flag(iprm), chol, drift, limits)
             except np.linalg.LinAlgError:
                 raise SimulationError(NOT_POSITIVE) from None
+            self._kept = True
+            self.n_renewals += renewed
             return b
         K.rechart_all(y, m.n, ref_u, ref_e, ws[0], ws[1], ws[2], ws[3], ws[4], ws[9])  # as the kernel
-        m.refresh_mobility(y, force=True)
-        dm = ws[-1]
-        ms, free = m.mobility_matrix(y)
-        try:
-            chol = np.linalg.cholesky(ms[np.ix_(free, free)])
-        except np.linalg.LinAlgError:
-            raise SimulationError(NOT_POSITIVE) from None
+        refresh = m.hydrodynamics.refresh
+        renew = (m.cell or self._kept is None or refresh <= 0.0 or self._limits[3] >= THERMAL_HOLD
+                 or m.mobility_use(y) > 1.0)
+        self._limits[3] = 1.0 if renew else self._limits[3] + 1.0
+        if renew:
+            m.refresh_mobility(y, force=True)
+            ms, free = m.mobility_matrix(y)
+            try:
+                chol = np.linalg.cholesky(ms[np.ix_(free, free)])
+            except np.linalg.LinAlgError:
+                raise SimulationError(NOT_POSITIVE) from None
+        else:
+            chol, free, drift = self._kept
         nh = 9 if m.cell else 3
         gq = g[:3 * n1]
         if m.cell:  # the slots (V, beads 1 … n, Ω): bead 0's normals and the body torque's
             gq = np.concatenate([gq, g[4 * n1 + 6:4 * n1 + 9]])
-        xq = np.zeros(len(ms))
+        xq = np.zeros(len(free))
         xq[free] = math.sqrt(2.0 * self.kT / dt) * solve_triangular(chol, gq[free], lower=True,
                                                                     trans="T")
         if m.cell:  # bead forces (none on bead 0), then the body's force and torque
@@ -700,29 +922,36 @@ class ImplicitStepper:
             xi[n1], xi[n1 + 1] = xq[:3], xq[3 * n1:]
         else:
             xi = xq.reshape(n1, 3)
-        ny = len(y)
-        w = self._work
-        b, yp, ym, f1, f2 = w[1].copy(), w[6], w[7], w[8], w[9]
+        b, yp, ym, f1, f2 = np.empty(ny), w[6], w[7], w[8], w[9]
         zf, zm, zh = np.zeros((n1, 3)), np.zeros(n1), np.zeros(nh)
         thermal_increment(y, dt, self.kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, ym, f1, f2,
                           zf, zm, zh, np.zeros((n1, 3)), np.zeros(n1), np.zeros(nh), xi,
                           K.general_flag(iprm))
-        o = 4 * n1 + nh
-        wv = g[o:o + ny]
-        zf[:] = wv[3:3 + 4 * n1].reshape(n1, 4)[:, :3]
-        zf.reshape(-1)[~free[:3 * n1]] = 0.0
-        zm[:] = wv[3:3 + 4 * n1].reshape(n1, 4)[:, 3]
-        yp = y.copy()
-        yp[3:3 + 4 * n1].reshape(n1, 4)[:, :3] += RFD_DELTA * zf
-        if m.cell:  # the orientation's generalized force: the torque J⁻ᵀ(φ) W_φ at y
-            yp[-3:] += RFD_DELTA * wv[-3:]
-            zh[6:9] = Bd.rotvec_torque(y[-3], y[-2], y[-1], wv[-3], wv[-2], wv[-1])
-        frozen = dm.copy()
-        dm[:] = m.correction_at(yp)
-        _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1, K.general_flag(iprm))
-        dm[:] = frozen
-        _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1, K.general_flag(iprm))
-        b += dt * self.kT / RFD_DELTA * (f1 - f2)
+        if renew:
+            o = 4 * n1 + nh
+            wv = g[o:o + ny]
+            zf[:] = wv[3:3 + 4 * n1].reshape(n1, 4)[:, :3]
+            zf.reshape(-1)[~free[:3 * n1]] = 0.0
+            zm[:] = wv[3:3 + 4 * n1].reshape(n1, 4)[:, 3]
+            yp = y.copy()
+            yp[3:3 + 4 * n1].reshape(n1, 4)[:, :3] += RFD_DELTA * zf
+            if m.cell:  # the orientation's generalized force: the torque J⁻ᵀ(φ) W_φ at y
+                yp[-3:] += RFD_DELTA * wv[-3:]
+                zh[6:9] = Bd.rotvec_torque(y[-3], y[-2], y[-1], wv[-3], wv[-2], wv[-1])
+            dm = ws[-1]
+            frozen = dm.copy()
+            dm[:] = m.correction_at(yp)
+            _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1, K.general_flag(iprm))
+            dm[:] = frozen
+            _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1, K.general_flag(iprm))
+            drift = self.kT / RFD_DELTA * (f1 - f2)
+            self._kept = (chol, free, drift)
+            self.n_renewals += 1
+        if m.cell:  # renewed at every step (this order of the products: the same bits as ever)
+            b += dt * self.kT / RFD_DELTA * (f1 - f2)
+        else:
+            add_kept_terms(y, dt, drift, xi, m.frozen_beads, m.build_arguments(), chol, b, iprm,
+                           ref_u, ref_e, ws)
         return b
 
     def _split_step(self, t0, dt, g, depth):

@@ -200,15 +200,20 @@ def test_fluid_force_on_filament_and_body_balances(boundary):
         assert abs(total[2]) < 1e-9 * scale and np.abs(total[:2]).max() > 1e-6 * scale
 
 
-def test_sbt_run_killed_after_a_checkpoint_resumes_bit_identical(tmp_path):
+@pytest.mark.parametrize("thermal", [False, True])
+def test_sbt_run_killed_after_a_checkpoint_resumes_bit_identical(tmp_path, thermal):
     """A nonlocal run SIGKILLed after its first checkpoint resumes (ΔM rebuilt where the
-    integrator restarts) to the records of the run that never stopped."""
+    integrator restarts) to the records of the run that never stopped; thermal: the
+    fixed-step scheme, whose kept thermal mobility (factor, drift) is renewed there too."""
     import os
     import signal
 
     from flagellum.io import RECORD_FIELDS, read_trajectory
 
     def new():
+        if thermal:
+            return Simulator(Params.from_flat({"length": 2.0}), Motor(0.5), hydrodynamics=SBT,
+                             thermal=True, seed=5, solver=SolverOptions(method="implicit"))
         return Simulator(Params.from_flat({"length": 2.0}), Motor(0.5), hydrodynamics=SBT)
 
     run = dict(t_end=0.06, save_every=1e-3, checkpoint_every=0.02, progress=False)

@@ -597,26 +597,33 @@ def nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen,
             for a in range(3):
                 zf[i, a] = g[o + 3 + 4 * i + a] if 3 * i + a >= nf else 0.0
             zm[i] = g[o + 3 + 4 * i + 3]
-        for j in range(ny):
-            yp[j] = y[j]
         for i in range(n1):
             for a in range(3):
-                yp[3 + 4 * i + a] += RFD_DELTA * zf[i, a]
+                x[i, a] = y[3 + 4 * i + a] + RFD_DELTA * zf[i, a]
+        D._correction_into(x, *build, ms)  # ΔM(y + δW), DM keeps ΔM(y)
+        # [ΔM(y + δW) − ΔM(y)] F of the physical bead forces F of the generalized ones
+        # (zf, zm): the chart's correction of the θ-forces, as the kernel's (I_GEN)
+        T, E1, E2, LEN, S, A1 = ws[0], ws[1], ws[2], ws[3], ws[4], ws[9]
+        K.frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1)
+        F = np.empty(m)
         for i in range(n1):
             for a in range(3):
-                x[i, a] = yp[3 + 4 * i + a]
-        for i in range(m):  # ΔM(y) kept in ms while DM holds ΔM(y + δW)
-            for j in range(m):
-                ms[i, j] = dm[i, j]
-        D._correction_into(x, *build, dm)
-        _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1, general)
-        for i in range(m):
-            for j in range(m):
-                dm[i, j] = ms[i, j]
-        _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1, general)
+                F[3 * i + a] = zf[i, a]
+        for i in range(1, n1):
+            sx, sy, sz = zm[i] * S[i, 0], zm[i] * S[i, 1], zm[i] * S[i, 2]
+            st = sx * T[i, 0] + sy * T[i, 1] + sz * T[i, 2]
+            for a, sa in enumerate((sx, sy, sz)):
+                gv = (sa - st * T[i, a]) / LEN[i]
+                F[3 * i + a] -= gv
+                F[3 * (i - 1) + a] += gv
         f = kT / RFD_DELTA
-        for j in range(ny):
-            drift[j] = f * (f1[j] - f2[j])
+        for j in range(ny):  # bead velocities only: add_kept_terms takes the angles' rates
+            drift[j] = 0.0
+        for i in range(m):
+            acc = 0.0
+            for j in range(m):
+                acc += (ms[i, j] - dm[i, j]) * F[j]
+            drift[3 + 4 * (i // 3) + i % 3] = f * acc
     add_kept_terms(y, dt, drift, xi, frozen, build, chol, b, iprm, ref_u, ref_e, ws)
     return renew
 

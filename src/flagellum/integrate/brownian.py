@@ -67,7 +67,8 @@ NONLOCAL_KICK_LIMIT = 1.0
 #: third order in ‖S‖ ≲ 0.36, docs/hydrodynamics.md, "Thermal noise")
 THERMAL_TURN = 0.5
 #: …and after this many steps: one sample of the nonlocal Itô drift serves them all, and its
-#: scatter, held, raised a stiff rod's tilt diffusion by 0.15/0.43/0.63 % at 2/3/4 steps
+#: scatter, held, raised a stiff rod's tilt diffusion by 0.2/0.6/0.3/1.2 % at 2/3/4/8 steps
+#: (± 0.2–0.35 %; docs/hydrodynamics.md, "What keeping costs in accuracy")
 THERMAL_HOLD = 3
 
 
@@ -479,8 +480,8 @@ def _local_change(T, tm, n, h, gpar, gperp, anchor, zeta, f, out):
 
 @njit(cache=True)
 def add_kept_terms(y, dt, drift, xi, frozen, build, chol, b, iprm, ref_u, ref_e, ws):
-    """b += Δt · (the nonlocal Itô drift kept from the renewal, ``drift``, per unit time in
-    the state's layout, plus the correction of the noise for the local mobility's change
+    """b += Δt · (the nonlocal Itô drift kept from the renewal, ``drift``, bead velocities
+    (3(n+1)) per unit time, plus the correction of the noise for the local mobility's change
     since the renewal, −½ E ξ − ⅛ E M_s⁻¹ E ξ, of the bead forces ``xi`` (n+1, 3)).
 
     E = M_loc(y) − M_loc(y*), y* the renewal's beads ``frozen``; M_s = M_s(y*) = L Lᵀ
@@ -514,14 +515,8 @@ def add_kept_terms(y, dt, drift, xi, frozen, build, chol, b, iprm, ref_u, ref_e,
     _local_change(T, tm, n, h, gpar, gperp, anchor, zeta, wv, ew)
     v = np.empty((n1, 3))
     for i in range(n1):
-        o = 3 + 4 * i
         for a in range(3):
-            v[i, a] = drift[o + a] - 0.5 * ex[i, a] - 0.125 * ew[i, a]
-    for j in range(3):  # the hook frame and θ_0 as kept
-        b[j] += dt * drift[j]
-    b[6] += dt * drift[6]
-    for j in range(3 + 4 * n1, y.shape[0]):
-        b[j] += dt * drift[j]
+            v[i, a] = drift[3 * i + a] - 0.5 * ex[i, a] - 0.125 * ew[i, a]
     for i in range(n1):
         o = 3 + 4 * i
         for a in range(3):
@@ -542,7 +537,8 @@ def nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen,
     ``frozen`` (:func:`flagellum.hydro.dynamics.limits_used`): ΔM rebuilt at y (into the workspace's DM,
     ``frozen`` := the beads), M_s = M_loc + ΔM factorized over the components the anchor
     leaves free (into ``chol``) and the nonlocal Itô drift by random finite difference (into
-    ``drift``, state layout, per unit time). Every step: the noise M ξ from the kept factor
+    ``drift``, bead velocities per unit time; the rates of the bond angles that they imply
+    are taken at each step, :func:`add_kept_terms`). Every step: the noise M ξ from the kept factor
     and the drift into ``b``. ``build`` the arguments of ΔM's compiled build (symmetric),
     ``ms`` scratch of ΔM's size. One call per step instead of a dozen numpy and scipy calls
     from Python (docs/hydrodynamics.md, "Thermal cost"). Raises numpy's LinAlgError where
@@ -610,20 +606,16 @@ def nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen,
             for a in range(3):
                 F[3 * i + a] = zf[i, a]
         for i in range(1, n1):
-            sx, sy, sz = zm[i] * S[i, 0], zm[i] * S[i, 1], zm[i] * S[i, 2]
-            st = sx * T[i, 0] + sy * T[i, 1] + sz * T[i, 2]
-            for a, sa in enumerate((sx, sy, sz)):
-                gv = (sa - st * T[i, a]) / LEN[i]
-                F[3 * i + a] -= gv
-                F[3 * (i - 1) + a] += gv
+            gv = K.chart_force(zm[i], S, T, LEN, i)
+            for a in range(3):
+                F[3 * i + a] -= gv[a]
+                F[3 * (i - 1) + a] += gv[a]
         f = kT / RFD_DELTA
-        for j in range(ny):  # bead velocities only: add_kept_terms takes the angles' rates
-            drift[j] = 0.0
         for i in range(m):
             acc = 0.0
             for j in range(m):
                 acc += (ms[i, j] - dm[i, j]) * F[j]
-            drift[3 + 4 * (i // 3) + i % 3] = f * acc
+            drift[i] = f * acc
     add_kept_terms(y, dt, drift, xi, frozen, build, chol, b, iprm, ref_u, ref_e, ws)
     return renew
 
@@ -831,7 +823,7 @@ class ImplicitStepper:
         if self._fast is None:
             ws = m.kernel_arrays[-1]
             self._fast = (m.build_arguments(), np.empty_like(ws[-1]), np.empty_like(ws[-1]),
-                          np.zeros(len(self.y)))
+                          np.zeros(3 * (m.n + 1)))
         self._limits[:3] = (m.hydrodynamics.refresh, THERMAL_TURN * m.turn_limit * m.h,
                             float(self._kept is None))
         self._limits[4] = THERMAL_HOLD
@@ -951,7 +943,8 @@ class ImplicitStepper:
             _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f1, 1, K.general_flag(iprm))
             dm[:] = frozen
             _mobility(y, prm, iprm, ref_u, ref_e, ref_m, zf, zm, zh, ws, f2, 1, K.general_flag(iprm))
-            drift = self.kT / RFD_DELTA * (f1 - f2)
+            # bead velocities: the kernel's angle and hook rates follow from them (zero here)
+            drift = self.kT / RFD_DELTA * (f1 - f2)[3:3 + 4 * n1].reshape(n1, 4)[:, :3].ravel()
             self._kept = (chol, free, drift)
             self.n_renewals += 1
         if m.cell:  # renewed at every step (this order of the products: the same bits as ever)

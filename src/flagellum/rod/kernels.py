@@ -53,6 +53,17 @@ def _cross(a0, a1, a2, b0, b1, b2):
 
 
 @njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
+def chart_force(m, S, T, LEN, i):
+    """The bead force g that a generalized force m conjugate to θ_i (i ≥ 1) stands for through
+    the chart's spin connection s_i: g = (m s_i − (m s_i·t_i) t_i)/|b_i|, taken off bead i and
+    added to bead i − 1 (the Itô drift's generalized forces, :func:`rhs` with I_GEN)."""
+    sx, sy, sz = m * S[i, 0], m * S[i, 1], m * S[i, 2]
+    st = sx * T[i, 0] + sy * T[i, 1] + sz * T[i, 2]
+    return ((sx - st * T[i, 0]) / LEN[i], (sy - st * T[i, 1]) / LEN[i],
+            (sz - st * T[i, 2]) / LEN[i])
+
+
+@njit(cache=True, inline="always", fastmath=FASTMATH, error_model="numpy")
 def frame_of(dx, dy, dz, co, si, ux, uy, uz, ex, ey, ez):
     """One frame of :func:`frames` from its bond vector d (u0 for the hook frame), material
     angle θ (co, si = cos θ, sin θ) and chart (pole u, vector e): (|d|, t (3), a1 (3),
@@ -740,13 +751,10 @@ def _rhs_kernel(GENERAL):
                     GT[i, k] *= el
         if iprm[I_GEN] == 1:  # physical force = generalized − chart correction of the θ-forces
             for i in range(1, n + 1):
-                m = ext_m[i]
-                sx, sy, sz = m * S[i, 0], m * S[i, 1], m * S[i, 2]
-                st = sx * T[i, 0] + sy * T[i, 1] + sz * T[i, 2]
-                for k, sk in enumerate((sx, sy, sz)):
-                    g = (sk - st * T[i, k]) / LEN[i]
-                    DR[i, k] += g
-                    DR[i - 1, k] -= g
+                g = chart_force(ext_m[i], S, T, LEN, i)
+                for k in range(3):
+                    DR[i, k] += g[k]
+                    DR[i - 1, k] -= g[k]
         # bead velocities (lab frame): the local drag of each bead (hydro.local)
         anchor, zeta = iprm[I_ANCHOR], prm[P_SPHERE]
         for i in range(n + 1):

@@ -947,6 +947,24 @@ def interval_colors(lo, hi):
     return color
 
 
+def reach_colors(reach, lo):
+    """Colours for columns that move the rows ``reach[:, j]`` (a boolean (rows, columns)
+    mask, outside the stored band too) such that columns of one colour move no common row:
+    greedy by the first stored row ``lo`` (the order of :func:`interval_colors`, which this
+    is where each column's rows are one interval). A row that a column moves outside its
+    stored range would otherwise be read as a change of another column of its colour."""
+    order = np.argsort(lo, kind="stable")
+    color = np.full(reach.shape[1], -1, np.int64)
+    used: list[np.ndarray] = []  # the rows of each colour
+    for j in order:
+        c = next((c for c, u in enumerate(used) if not (u & reach[:, j]).any()), len(used))
+        if c == len(used):
+            used.append(np.zeros(reach.shape[0], bool))
+        used[c] |= reach[:, j]
+        color[j] = c
+    return color
+
+
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def band_jacobian(y, f0, prm, iprm, ref_u, ref_e, ref_m, ext_f, ext_m, ext_hook, ws, kl, ku,
                   ab, scale, y_work, f_work):

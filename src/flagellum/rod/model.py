@@ -322,6 +322,7 @@ class RodModel:
             charts = (self.ref_u.copy(), self.ref_e.copy(), self.ref_m.copy())
             frozen = (self._ws[-1].copy(), None if self._frozen is None else self._frozen.copy())
             nz = np.zeros((ny, 2 * kl + ku + 1), bool)
+            reach = np.zeros((ny, ny), bool)  # a cell's: reach[i, j], row i moved by column j
             ab = np.zeros_like(nz, dtype=float)
             for _ in range(2):
                 y = self.initial_state()
@@ -336,6 +337,8 @@ class RodModel:
                                      self._zf, self._zm, self._zh, self._ws, kl, ku, ab, 1.0,
                                      np.zeros(ny), np.zeros(ny), *K.band_colors.py_func(ny, kl, ku))
                 nz |= ab != 0.0
+                if self.cell:
+                    reach |= self._reach(y, prm)
             self.set_charts(*charts)
             self._ws[-1][:], self._frozen = frozen
             rows = np.arange(ny)[:, None] + np.arange(-kl - ku, kl + 1)[None, :]
@@ -343,8 +346,34 @@ class RodModel:
             hi = rows.max(axis=1)
             lo = np.where(nz, rows, ny).min(axis=1)
             lo, hi = np.minimum(lo, np.arange(ny)), np.maximum(hi, np.arange(ny))
-            self._colors = (key, (K.interval_colors(lo, hi), lo.astype(np.int64), hi.astype(np.int64)))
+            if self.cell:  # the orientation's rows and columns reach outside the band
+                inside = np.arange(ny)[:, None]
+                reach |= (inside >= lo[None, :]) & (inside <= hi[None, :])
+                color = K.reach_colors(reach, lo)
+            else:
+                color = K.interval_colors(lo, hi)
+            self._colors = (key, (color, lo.astype(np.int64), hi.astype(np.int64)))
         return self._colors[1]
+
+    def _reach(self, y: np.ndarray, prm: np.ndarray) -> np.ndarray:
+        """(ny, ny) mask of the rows each column of the colored Jacobian's operator moves at
+        y (one column at a time), outside the band too: a cell body's orientation couples to
+        the first beads and the hook (and, with a nonlocal near field, to the beads near
+        bead 0), rows that a column of the same colour would otherwise read as its own."""
+        ny = self.state_size
+        ip = self.iprm.copy()
+        if ip[K.I_HYDRO] == K.HYDRO_FROZEN:  # the operator colored_jacobian differentiates
+            ip[K.I_HYDRO] = K.HYDRO_BANDED
+        f0, f1 = np.zeros(ny), np.zeros(ny)
+        args = (prm, ip, self.ref_u, self.ref_e, self.ref_m, self._zf, self._zm, self._zh, self._ws)
+        self.rhs_kernel(y, f0, *args)
+        out = np.zeros((ny, ny), bool)
+        for j in range(ny):
+            yj = y.copy()
+            yj[j] += 1e-7 * max(1.0, abs(y[j]))
+            self.rhs_kernel(yj, f1, *args)
+            out[:, j] = f1 != f0
+        return out
 
     def set_omega_frame(self, omega: float) -> None:
         self.omega_frame = float(omega)

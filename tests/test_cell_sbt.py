@@ -13,7 +13,8 @@ import pytest
 
 from flagellum import Filament, Fluid, Params
 from flagellum.hydro import body as Bd
-from flagellum.hydro.dynamics import Hydrodynamics, cell_mobility
+from flagellum.hydro.dynamics import Hydrodynamics, cell_local_mobility, cell_mobility
+from flagellum.integrate import brownian as BR
 from flagellum.integrate.brownian import ImplicitStepper
 from flagellum.motor import Boundary, Motor
 from flagellum.rod.model import RodModel, positions
@@ -22,6 +23,25 @@ from test_cell_thermal import _diffusion
 
 KT = 4.1e-3
 SBT = Hydrodynamics("sbt")
+
+
+def _slot_map(m, y):
+    """K: a cell's slot velocities (V, U_1 … U_n, Ω) to the rates of its bead positions and
+    orientation: bead 0 at V + Ω × d, φ̇ = J(φ)⁻¹ Ω (hydro.body.rotvec_rate)."""
+    n1 = m.n + 1
+    x = positions(y)
+    cell = m._cell_body(m._mobility_points(y))
+    B = np.zeros((3 * n1 + 3, 3 * n1 + 3))
+    B[:3, :3] = np.eye(3)
+    d = x[0] - cell.centre
+    B[:3, -3:] = -np.array([[0, -d[2], d[1]], [d[2], 0, -d[0]], [-d[1], d[0], 0]])  # Ω × d
+    B[3:3 * n1, 3:3 * n1] = np.eye(3 * n1 - 3)
+    B[-3:, -3:] = np.array([Bd.rotvec_rate(*y[-3:], *e) for e in np.eye(3)]).T
+    return B
+
+
+def _displacement(b):
+    return np.concatenate([positions(b).ravel(), b[-3:]])
 
 
 @pytest.mark.parametrize("hook", ["free", "clamped"])
@@ -43,30 +63,83 @@ def test_cell_noise_has_the_covariance_of_the_coupled_mobility(hook):
     dt = 1e-7
     st = ImplicitStepper(m, 0.0, y, dt, kT=KT, seed=4)
     rng = np.random.default_rng(9)
-    n1 = m.n + 1
-
-    def displacement(b):
-        return np.concatenate([positions(b).ravel(), b[-3:]])
-
-    bs = np.array([displacement(st._nonlocal_increment(y.copy(), rng.standard_normal(st._n_normals), dt))
+    bs = np.array([_displacement(st._nonlocal_increment(y.copy(), rng.standard_normal(st._n_normals), dt))
                    for _ in range(4000)])
     cov = bs.T @ bs / len(bs) / (2 * KT * dt)
     x = positions(y)
     cell = m._cell_body(m._mobility_points(y))
     me = cell_mobility(x, p.fluid.filament_radius, p.fluid.viscosity, cell)
     ms = 0.5 * (me + me.T)
-    B = np.zeros((3 * n1 + 3, 3 * n1 + 3))
-    B[:3, :3] = np.eye(3)
-    d = x[0] - cell.centre
-    B[:3, -3:] = -np.array([[0, -d[2], d[1]], [d[2], 0, -d[0]], [-d[1], d[0], 0]])  # Ω × d
-    B[3:3 * n1, 3:3 * n1] = np.eye(3 * n1 - 3)
-    B[-3:, -3:] = np.array([Bd.rotvec_rate(*y[-3:], *e) for e in np.eye(3)]).T
+    B = _slot_map(m, y)
     expect = B @ ms @ B.T
     rel = np.linalg.norm(cov - expect) / np.linalg.norm(expect)
     assert rel < 0.1
-    from flagellum.hydro.dynamics import cell_local_mobility
     ml = B @ cell_local_mobility(x, p.filament.segment_length, *p.gammas[:2], p.fluid.viscosity, cell) @ B.T
     assert np.linalg.norm(cov - ml) / np.linalg.norm(ml) > 3 * rel
+
+
+@pytest.mark.parametrize("hook", ["free", "clamped"])
+def test_kept_cell_mobility_has_the_noise_of_the_applied_one(hook, monkeypatch):
+    """Between renewals a cell's thermal mobility is kept (integrate.brownian.
+    cell_nonlocal_increment): ξ = √(2kT/Δt) L⁻ᵀ g over the slots from L Lᵀ = M_s at the
+    renewal's points, corrected in force space to ξ' = (I − ½A + ⅜A²) ξ (A = M_s⁻¹ E,
+    E = M_cell,loc(y) − M_cell,loc(y*)) and applied by the kernel through M_s + E and the
+    cell's kinematics K. The increments are linear in the slots' normals (the drift's parts
+    do not depend on them), so their covariance is the product of their columns. Closed form
+    (algebra): 2kTΔt K P M_s⁻¹ Pᵀ Kᵀ, P = (M_s + E)(I − ½A + ⅜A²), to roundoff; it differs
+    from the applied mobility's K (M_s + E) Kᵀ at third order in A. For scale: at a state
+    kept since the renewal whose bonds have turned by 0.3–0.5 of the turn limit (the
+    renewal's THERMAL_TURN; ``refresh`` 0.5 µm, so that they decide), E is a large part of
+    the mobility, the third-order term below 2 % of it and more than 5× smaller than the
+    uncorrected noise's error K (E + E M_s⁻¹ E) Kᵀ."""
+    monkeypatch.setattr(BR, "THERMAL_HOLD", 10 ** 6)
+    p = Params(Filament(length=2.0), Fluid(kT=KT))
+    bd = Boundary(anchor="free", body_radius=0.5, body_aspect=2.0, motor_offset=30.0, hook=hook)
+    m = RodModel(p, Motor(1.0), bd, hydrodynamics=Hydrodynamics("sbt", refresh=0.5))
+    dt = 1e-5
+    st = ImplicitStepper(m, 0.0, m.initial_state(), dt, kT=KT, seed=3)
+    st.advance(2e-4)
+    for _ in range(200):  # on to a state kept since the renewal, with most of the limits used
+        st.advance(st.t + dt)
+        if st._limits[3] >= 2 and 0.3 < m.mobility_use(st.y) < 0.95 * BR.THERMAL_TURN:
+            break
+    else:
+        pytest.fail("no kept state with 0.3–0.475 of the turn limit used")
+    renewals = st.n_renewals
+    y = st.y.copy()
+    pts, frozen = m._mobility_points(y), m.mobility_points.copy()
+    assert np.abs(pts - frozen).max() > 1e-3
+    n1 = m.n + 1
+    slots = np.r_[0:3 * n1, 4 * n1 + 6:4 * n1 + 9]  # the normals of V, beads 1 … n and Ω
+    zero = np.zeros(st._n_normals)
+    b0 = _displacement(st._nonlocal_increment(y.copy(), zero, dt))
+    cols = []
+    for j in slots:
+        g = zero.copy()
+        g[j] = 1.0
+        cols.append(_displacement(st._nonlocal_increment(y.copy(), g, dt)) - b0)
+    assert st.n_renewals == renewals  # all at the kept mobility
+    cov = np.array(cols).T @ np.array(cols) / (2 * KT * dt)
+    h, (gpar, gperp, _) = m.h, m.gammas
+
+    def local(points):
+        return cell_local_mobility(points[:n1], h, gpar, gperp, p.fluid.viscosity,
+                                   m._cell_body(points))
+
+    E = local(pts) - local(frozen)
+    ms = local(frozen) + m.kernel_arrays[-1][-1]
+    A = np.linalg.solve(ms, E)
+    P = (ms + E) @ (np.eye(len(A)) - A / 2 + 3 * A @ A / 8)
+    K = _slot_map(m, y)
+    expect = K @ P @ np.linalg.solve(ms, P.T) @ K.T
+    applied = K @ (ms + E) @ K.T
+    scale = np.abs(applied).max()
+    assert np.abs(cov - expect).max() <= 1e-9 * scale
+    assert np.abs(K @ E @ K.T).max() > 0.1 * scale  # a real test: the first-order term is large
+    third = np.abs(expect - applied).max()
+    assert third < 0.02 * scale
+    raw = K @ (ms + E) @ np.linalg.solve(ms, (ms + E).T) @ K.T  # ξ through M_s + E, uncorrected
+    assert np.abs(raw - applied).max() > 5 * third
 
 
 def test_thermal_sbt_cell_from_the_cli_runs_and_resumes(cli, tmp_path):

@@ -158,7 +158,7 @@ def run_regime(name: str, solver: SolverOptions | None = None, window: float | N
     ``hydrodynamics`` the mobility (default RFT); ``cpu_seconds`` the process time of the run;
     ``with_limit``: also ``limit``, where the run's wall time went (:func:`flagellum.costs.limit`,
     measured in this run)."""
-    torque, w, boundary, thermal = REGIMES[name]
+    torque, w, boundary, thermal = _regime(name)
     w = w if window is None else window
     if solver is None:
         solver = SolverOptions(method="implicit") if thermal else SolverOptions()
@@ -246,8 +246,17 @@ def regimes(quick: bool = False, names=None, solver: SolverOptions | None = None
     return out
 
 
+#: regimes of :func:`sbt_regimes` that are not :data:`REGIMES` (no PyElastica peer: it has no
+#: cell body): a whole cell, body a = 1 µm, motor on its rear pole (CVODE, the cell's method)
+CELL_REGIMES = {"cell_M1": (1.0, 0.1, Boundary(anchor="free", body_radius=1.0), False)}
 #: the regimes of :func:`sbt_regimes`, each run with RFT and with the nonlocal mobility
-SBT_REGIMES = ("from_rest_M1", "buckled_M1.6", "load_sphere_M2", "free_swimmer_M2")
+SBT_REGIMES = ("from_rest_M1", "buckled_M1.6", "load_sphere_M2", "free_swimmer_M2", "cell_M1")
+
+
+def _regime(name: str) -> tuple:
+    """(torque, window, boundary, thermal) of regime ``name`` (:data:`REGIMES`,
+    :data:`CELL_REGIMES`)."""
+    return REGIMES[name] if name in REGIMES else CELL_REGIMES[name]
 #: the untimed run of each regime before the timed ones [s]: long enough for the code paths
 #: that start later (the frame's adaptation and its carry), whose compile a 0.2-ms run left
 #: in the first timed run (1.4 s more CPU in RFT's run from rest)
@@ -259,7 +268,7 @@ def warm_up_regimes(names, hydrodynamics=(None,)) -> None:
     :data:`WARM_UP`, untimed, so that no timed run compiles."""
     for name in names:
         for h in hydrodynamics:
-            run_regime(name, window=min(WARM_UP, REGIMES[name][1]), hydrodynamics=h)
+            run_regime(name, window=min(WARM_UP, _regime(name)[1]), hydrodynamics=h)
 
 
 def sbt_regimes(quick: bool = False, names=SBT_REGIMES, hydrodynamics=None,
@@ -277,9 +286,9 @@ def sbt_regimes(quick: bool = False, names=SBT_REGIMES, hydrodynamics=None,
     warm_up_regimes(names, (None, hd))
     out = {}
     for name in names:
-        w = REGIMES[name][1] * (0.25 if quick else 1.0)
+        w = _regime(name)[1] * (0.25 if quick else 1.0)
         rft, sbt = run_regime(name, window=w), run_regime(name, window=w, hydrodynamics=hd)
-        row = {"torque": REGIMES[name][0], "window": w, "model": hd.model, "refresh": hd.refresh,
+        row = {"torque": _regime(name)[0], "window": w, "model": hd.model, "refresh": hd.refresh,
                "rft": rft, "sbt": sbt,
                "cpu_ratio": sbt["cpu_seconds"] / max(rft["cpu_seconds"], 1e-12),
                "wall_ratio": sbt["wall_seconds"] / max(rft["wall_seconds"], 1e-12)}

@@ -37,6 +37,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from . import body as Bd
 from . import local as L
 from . import sbt
 from .options import MODELS, REFRESH, Hydrodynamics
@@ -362,10 +363,43 @@ class CellBody(NamedTuple):
 
     def motor_axis(self, point) -> np.ndarray:
         """The inward unit normal m of the body's surface at ``point`` (the motor point)."""
-        d = np.asarray(point, float) - self.centre
-        z = d @ self.axis
-        nrm = (d - z * self.axis) / self.radius ** 2 + z * self.axis / (self.aspect * self.radius) ** 2
-        return -nrm / np.linalg.norm(nrm)
+        return _motor_axis(np.asarray(point, float), np.asarray(self.centre, float),
+                           np.asarray(self.axis, float), float(self.radius), float(self.aspect))
+
+    def arguments(self, viscosity: float) -> tuple:
+        """(centre, axis, a, p, the body's four resistances, hook friction): the body's
+        arguments of the compiled routines :func:`_cell_mobility_into` and
+        :func:`_cell_local_into`."""
+        return (np.asarray(self.centre, float), np.asarray(self.axis, float), float(self.radius),
+                float(self.aspect), _body_resistance(self.radius, self.aspect, viscosity),
+                float(self.hook_friction))
+
+
+@functools.lru_cache(maxsize=64)
+def _body_resistance(radius, aspect, viscosity) -> np.ndarray:
+    """The four resistances of a cell body (read-only, cached: every build of ΔM asks)."""
+    from .body import body_resistance
+
+    out = np.array(body_resistance(radius, aspect, viscosity), float)
+    out.flags.writeable = False
+    return out
+
+
+@njit(cache=True)
+def _motor_axis(point, centre, axis, radius, aspect):
+    """:meth:`CellBody.motor_axis`: minus the normalized gradient of the spheroid's surface
+    function at ``point``."""
+    z = 0.0
+    for a in range(3):
+        z += (point[a] - centre[a]) * axis[a]
+    out = np.empty(3)
+    for a in range(3):
+        d = point[a] - centre[a]
+        out[a] = (d - z * axis[a]) / radius ** 2 + z * axis[a] / (aspect * radius) ** 2
+    nrm = math.sqrt(out[0] ** 2 + out[1] ** 2 + out[2] ** 2)
+    for a in range(3):
+        out[a] = -out[a] / nrm
+    return out
 
 
 def cell_mobility(x, radius, viscosity, cell: CellBody) -> np.ndarray:
@@ -375,17 +409,30 @@ def cell_mobility(x, radius, viscosity, cell: CellBody) -> np.ndarray:
     (:func:`grand_mobility`) in resistance form, Pᵀ M⁻¹ P with P the map of q to
     (U_0 … U_n, V, Ω) (U_0 = V + Ω × d, bead 0 the motor point), plus a clamped
     hook's local friction across the motor axis, inverted."""
-    big = grand_mobility(x, radius, viscosity, cell.centre, cell.radius, cell.aspect, cell.axis)
-    n1 = len(x)
+    x = sbt._check_positions(x)
+    out = np.empty((3 * len(x) + 3, 3 * len(x) + 3))
+    _cell_mobility_into(x, _blob_sizes(radius, len(x) - 1), float(viscosity),
+                        *cell.arguments(viscosity), out)
+    return out
+
+
+@njit(cache=True)
+def _cell_mobility_into(x, eps, viscosity, centre, axis, radius, aspect, rb, hook_friction, out):
+    """:func:`cell_mobility` into ``out``."""
+    n1 = x.shape[0]
     m = 3 * n1
+    big = np.empty((m + 6, m + 6))
+    _grand_into(x, eps, sbt._bead_lengths(sbt._bond_lengths(x)), viscosity, centre, radius,
+                aspect, axis, rb, big)
     # Pᵀ M⁻¹ P inverted without dense inverses (:func:`_constrained_into`): P(Pᵀ M⁻¹ P)⁻¹Pᵀ is
     # the mobility under the constraint C u = U_0 − V − Ω × d = 0 (row a: U_0,a − V_a +
     # ([d]×Ω)_a), and its rows of V, U_1 … U_n, Ω (where P is the identity) are the slots'
-    skew = _skew((np.asarray(x[0], float) - cell.centre)[None])[0]
+    d0, d1, d2 = x[0, 0] - centre[0], x[0, 1] - centre[1], x[0, 2] - centre[2]
+    skew = np.array([[0.0, -d2, d1], [d2, 0.0, -d0], [-d1, d0, 0.0]])
     idx = np.full((3, 4), -1, np.int64)
     coef = np.zeros((3, 4))
     for a in range(3):
-        idx[a, :2], coef[a, :2] = (a, m + a), (1.0, -1.0)
+        idx[a, 0], coef[a, 0], idx[a, 1], coef[a, 1] = a, 1.0, m + a, -1.0
         t = 2
         for b in range(3):
             if skew[a, b] != 0.0:
@@ -393,13 +440,40 @@ def cell_mobility(x, radius, viscosity, cell: CellBody) -> np.ndarray:
                 t += 1
     w = np.empty((m + 6, m + 6))
     _constrained_into(big, m + 6, idx, coef, w)
-    slots = np.r_[m:m + 3, 3:m, m + 3:m + 6]
-    out = w[np.ix_(slots, slots)]
-    if cell.hook_friction:  # + H on Ω's resistance: push-through, (R + SᵀH S)⁻¹ = M − M Sᵀ(1 + H S M Sᵀ)⁻¹ H S M
-        a = cell.motor_axis(x[0])
-        h = cell.hook_friction * (np.eye(3) - np.outer(a, a))
-        out = out - out[:, -3:] @ np.linalg.solve(np.eye(3) + h @ out[-3:, -3:], h @ out[-3:])
-    return out
+    k = m + 3
+    slots = np.empty(k, np.int64)  # V, beads 1 … n, Ω
+    for a in range(3):
+        slots[a], slots[m + a] = m + a, m + 3 + a
+    for i in range(3, m):
+        slots[i] = i
+    for p in range(k):
+        for q in range(k):
+            out[p, q] = w[slots[p], slots[q]]
+    if hook_friction != 0.0:  # + H on Ω's resistance: push-through,
+        # (R + SᵀH S)⁻¹ = M − M Sᵀ(1 + H S M Sᵀ)⁻¹ H S M
+        mm = _motor_axis(x[0], centre, axis, radius, aspect)
+        hm = np.empty((3, 3))
+        for a in range(3):
+            for b in range(3):
+                hm[a, b] = hook_friction * ((1.0 if a == b else 0.0) - mm[a] * mm[b])
+        lhs = np.empty((3, 3))
+        rhs = np.zeros((3, k))
+        for a in range(3):
+            for b in range(3):
+                acc = 1.0 if a == b else 0.0
+                for c in range(3):
+                    acc += hm[a, c] * out[m + c, m + b]
+                lhs[a, b] = acc
+            for j in range(k):
+                acc = 0.0
+                for c in range(3):
+                    acc += hm[a, c] * out[m + c, j]
+                rhs[a, j] = acc
+        z = _solve_small(lhs, rhs)
+        col = out[:, m:].copy()
+        for i in range(k):
+            for j in range(k):
+                out[i, j] -= col[i, 0] * z[0, j] + col[i, 1] * z[1, j] + col[i, 2] * z[2, j]
 
 
 def cell_local_mobility(x, h, gpar, gperp, viscosity, cell: CellBody) -> np.ndarray:
@@ -407,28 +481,64 @@ def cell_local_mobility(x, h, gpar, gperp, viscosity, cell: CellBody) -> np.ndar
     :func:`flagellum.rod.kernels.cell_motion` and :func:`flagellum.hydro.local.bead_friction`:
     beads 1 … n their local drag, (V, Ω) the inverse of the body's resistance plus bead 0's
     friction at the motor point (and a clamped hook's friction across m)."""
-    from .body import body_resistance
-
-    n1 = len(x)
-    out = local_mobility(x, h, gpar, gperp, L.CELL, 0.0)
-    out = np.pad(out, ((0, 3), (0, 3)))
-    rb = body_resistance(cell.radius, cell.aspect, viscosity)
-    ee = np.outer(cell.axis, cell.axis)
-    t = (x[1] - x[0]) / np.linalg.norm(x[1] - x[0])
-    z0 = 0.5 * h * (gpar * np.outer(t, t) + gperp * (np.eye(3) - np.outer(t, t)))
-    dx = _skew((np.asarray(x[0], float) - cell.centre)[None])[0]
-    G = np.zeros((6, 6))
-    G[:3, :3] = rb.translation_transverse * np.eye(3) + (rb.translation_axial - rb.translation_transverse) * ee + z0
-    G[:3, 3:] = -z0 @ dx
-    G[3:, :3] = dx @ z0
-    G[3:, 3:] = rb.rotation_transverse * np.eye(3) + (rb.rotation_axial - rb.rotation_transverse) * ee - dx @ z0 @ dx
-    if cell.hook_friction:
-        m = cell.motor_axis(x[0])
-        G[3:, 3:] += cell.hook_friction * (np.eye(3) - np.outer(m, m))
-    Gi = np.linalg.inv(G)
-    s = [0, 1, 2, 3 * n1, 3 * n1 + 1, 3 * n1 + 2]
-    out[np.ix_(s, s)] = Gi
+    x = np.ascontiguousarray(x, dtype=float)
+    out = np.zeros((3 * len(x) + 3, 3 * len(x) + 3))
+    _cell_local_into(x, float(h), float(gpar), float(gperp), *cell.arguments(viscosity), 1.0, out)
     return out
+
+
+@njit(cache=True)
+def _body_block(x, h, gpar, gperp, centre, axis, rb, hook_friction, radius, aspect):
+    """The 6×6 local mobility of the body's slots (V, Ω) in :func:`cell_local_mobility`:
+    the inverse of the body's resistance about its centre plus bead 0's friction ζ0 at the
+    motor point d (and a clamped hook's across the motor axis)."""
+    t = np.empty(3)
+    dx = np.zeros((3, 3))  # [d]×
+    for a in range(3):
+        t[a] = x[1, a] - x[0, a]
+    ln = math.sqrt(t[0] ** 2 + t[1] ** 2 + t[2] ** 2)
+    for a in range(3):
+        t[a] /= ln
+    d0, d1, d2 = x[0, 0] - centre[0], x[0, 1] - centre[1], x[0, 2] - centre[2]
+    dx[0, 1], dx[0, 2], dx[1, 2] = -d2, d1, -d0
+    dx[1, 0], dx[2, 0], dx[2, 1] = d2, -d1, d0
+    z0 = np.empty((3, 3))
+    ee = np.empty((3, 3))
+    for a in range(3):
+        for b in range(3):
+            one = 1.0 if a == b else 0.0
+            z0[a, b] = 0.5 * h * (gpar * t[a] * t[b] + gperp * (one - t[a] * t[b]))
+            ee[a, b] = axis[a] * axis[b]
+    dz = dx @ z0
+    zd = z0 @ dx
+    dzd = dz @ dx
+    g = np.empty((6, 6))
+    for a in range(3):
+        for b in range(3):
+            one = 1.0 if a == b else 0.0
+            g[a, b] = rb[1] * one + (rb[0] - rb[1]) * ee[a, b] + z0[a, b]
+            g[a, 3 + b] = -zd[a, b]
+            g[3 + a, b] = dz[a, b]
+            g[3 + a, 3 + b] = rb[3] * one + (rb[2] - rb[3]) * ee[a, b] - dzd[a, b]
+    if hook_friction != 0.0:
+        mm = _motor_axis(x[0], centre, axis, radius, aspect)
+        for a in range(3):
+            for b in range(3):
+                g[3 + a, 3 + b] += hook_friction * ((1.0 if a == b else 0.0) - mm[a] * mm[b])
+    return np.linalg.inv(g)
+
+
+@njit(cache=True)
+def _cell_local_into(x, h, gpar, gperp, centre, axis, radius, aspect, rb, hook_friction, scale, out):
+    """out += ``scale`` · :func:`cell_local_mobility` (3(n+2) square)."""
+    n1 = x.shape[0]
+    # beads 1 … n (bead 0's CELL friction adds nothing here: it is the body block's)
+    _fill_local(_bond_tangents(x), n1 - 1, h, gpar, gperp, L.CELL, 0.0, out, scale)
+    gi = _body_block(x, h, gpar, gperp, centre, axis, rb, hook_friction, radius, aspect)
+    m = 3 * n1
+    for p in range(6):
+        for q in range(6):
+            out[p if p < 3 else m + p - 3, q if q < 3 else m + q - 3] += scale * gi[p, q]
 
 
 def rigid_fit(x_ref, x, anchor, axial=None):
@@ -656,23 +766,102 @@ def _correction_into(x, eps, h, gpar, gperp, anchor, zeta, viscosity, sphere_rad
                      symmetric, out):
     _effective_into(x, eps, viscosity, anchor, sphere_radius, rb, out)
     if symmetric:
-        m = out.shape[0]
-        for i in range(m):
-            for j in range(i + 1, m):
-                v = 0.5 * (out[i, j] + out[j, i])
-                out[i, j] = v
-                out[j, i] = v
+        _symmetrize(out)
     _fill_local(_bond_tangents(x), x.shape[0] - 1, h, gpar, gperp, anchor, zeta, out, -1.0)
 
 
-def cell_correction(x, h, gammas, radius, viscosity, cell: CellBody, symmetric=False) -> np.ndarray:
+@njit(cache=True)
+def _symmetrize(out):
+    """out := (out + outᵀ)/2 in place (the thermal runs' symmetric mobility)."""
+    m = out.shape[0]
+    for i in range(m):
+        for j in range(i + 1, m):
+            v = 0.5 * (out[i, j] + out[j, i])
+            out[i, j] = v
+            out[j, i] = v
+
+
+def cell_correction(x, h, gammas, radius, viscosity, cell: CellBody, symmetric=False,
+                    out=None) -> np.ndarray:
     """ΔM = M_cell − M_cell,loc (3(n+2) square, :func:`cell_mobility`,
     :func:`cell_local_mobility`) at frozen bead positions x and body ``cell``: what
-    :func:`flagellum.rod.kernels.cell_motion` adds to the body's and the beads' local motion."""
-    me = cell_mobility(x, radius, viscosity, cell)
+    :func:`flagellum.rod.kernels.cell_motion` adds to the body's and the beads' local motion.
+    Compiled end to end, as :func:`correction` (``out``: the array to write it into)."""
+    x = sbt._check_positions(x)
+    if out is None:
+        out = np.empty((3 * len(x) + 3, 3 * len(x) + 3))
+    _cell_correction_into(x, _blob_sizes(radius, len(x) - 1), float(h), float(gammas[0]),
+                          float(gammas[1]), float(viscosity), *cell.arguments(viscosity),
+                          bool(symmetric), out)
+    return out
+
+
+@njit(cache=True)
+def _cell_correction_into(x, eps, h, gpar, gperp, viscosity, centre, axis, radius, aspect, rb,
+                          hook_friction, symmetric, out):
+    """:func:`cell_correction` into ``out``."""
+    _cell_mobility_into(x, eps, viscosity, centre, axis, radius, aspect, rb, hook_friction, out)
     if symmetric:
-        me = 0.5 * (me + me.T)
-    return me - cell_local_mobility(x, h, gammas[0], gammas[1], viscosity, cell)
+        _symmetrize(out)
+    _cell_local_into(x, h, gpar, gperp, centre, axis, radius, aspect, rb, hook_friction, -1.0, out)
+
+
+def cell_build_arguments(n, h, gammas, radius, viscosity, body_radius, body_aspect, clamped,
+                         symmetric=False) -> tuple:
+    """The arguments of :func:`cell_correction_points` after the points and before ``out``
+    (n segments, filament ``radius``; a clamped hook's friction across the motor axis,
+    ½γ⊥h³, on the body)."""
+    return (_blob_sizes(radius, n), float(h), float(gammas[0]), float(gammas[1]),
+            float(viscosity), float(body_radius), float(body_aspect),
+            _body_resistance(body_radius, body_aspect, viscosity),
+            0.5 * gammas[1] * h ** 3 if clamped else 0.0, bool(symmetric))
+
+
+@njit(cache=True)
+def cell_correction_points(points, eps, h, gpar, gperp, viscosity, radius, aspect, rb,
+                           hook_friction, symmetric, out):
+    """:func:`cell_correction` at a cell's mobility points (the beads, the body's centre and
+    front pole, :func:`cell_points`) into ``out``; the arguments after them from
+    :func:`cell_build_arguments`."""
+    centre, axis = cell_frame(points)
+    _cell_correction_into(points[:points.shape[0] - 2], eps, h, gpar, gperp, viscosity, centre,
+                          axis, radius, aspect, rb, hook_friction, symmetric, out)
+
+
+@njit(cache=True)
+def cell_local_points(points, h, gpar, gperp, radius, aspect, rb, hook_friction, scale, out):
+    """out += ``scale`` · :func:`cell_local_mobility` at a cell's mobility points."""
+    centre, axis = cell_frame(points)
+    _cell_local_into(points[:points.shape[0] - 2], h, gpar, gperp, centre, axis, radius, aspect,
+                     rb, hook_friction, scale, out)
+
+
+@njit(cache=True)
+def cell_points(y, n1, axis_b, offset_b, polar, out):
+    """A cell's mobility points from its state y into ``out`` (n1 + 2, 3): the n1 beads, the
+    body's centre x_0 − Q d_b and its front pole, centre + ``polar`` Q e_b (Q = exp([φ]×) of
+    the state's last three values; d_b, e_b the motor offset and the axis in the body frame)."""
+    ny = y.shape[0]
+    q = np.empty((3, 3))
+    Bd.rotation_matrix(y[ny - 3], y[ny - 2], y[ny - 1], q)
+    for i in range(n1):
+        for a in range(3):
+            out[i, a] = y[3 + 4 * i + a]
+    for a in range(3):
+        c = out[0, a] - (q[a, 0] * offset_b[0] + q[a, 1] * offset_b[1] + q[a, 2] * offset_b[2])
+        out[n1, a] = c
+        out[n1 + 1, a] = c + polar * (q[a, 0] * axis_b[0] + q[a, 1] * axis_b[1] + q[a, 2] * axis_b[2])
+
+
+@njit(cache=True)
+def cell_frame(points):
+    """(centre, unit axis) of a cell body from its mobility points (the beads, then the
+    body's centre and front pole: :meth:`flagellum.rod.model.RodModel._mobility_points`)."""
+    k = points.shape[0]
+    centre = points[k - 2].copy()
+    axis = points[k - 1] - centre
+    nrm = math.sqrt(axis[0] ** 2 + axis[1] ** 2 + axis[2] ** 2)
+    return centre, axis / nrm
 
 
 def moving_components(anchor, n1: int) -> np.ndarray:
@@ -690,7 +879,9 @@ def fixed_components(anchor) -> int:
     return 3 if anchor == L.FIXED else (2 if anchor == L.AXIAL else 0)
 
 
-__all__ = ["CellBody", "Hydrodynamics", "MODELS", "REFRESH", "body_flow", "cell_correction",
-           "cell_local_mobility", "cell_mobility", "correction", "effective_mobility",
-           "grand_mobility", "local_mobility", "moving_components", "rigid_fit",
-           "rotate_correction", "renew_into", "sphere_centre", "turn_into", "sphere_coupling", "turn_limit", "bonds_within", "near_beads"]
+__all__ = ["CellBody", "Hydrodynamics", "MODELS", "REFRESH", "body_flow", "bonds_within",
+           "cell_build_arguments", "cell_correction", "cell_correction_points", "cell_frame",
+           "cell_local_mobility", "cell_local_points", "cell_mobility", "cell_points",
+           "correction", "effective_mobility", "grand_mobility", "local_mobility",
+           "moving_components", "near_beads", "renew_into", "rigid_fit", "rotate_correction",
+           "sphere_centre", "sphere_coupling", "turn_into", "turn_limit"]

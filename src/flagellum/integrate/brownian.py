@@ -36,7 +36,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 from scipy.linalg import solve_triangular
 
 from .._jit import FASTMATH
@@ -527,6 +528,35 @@ def add_kept_terms(y, dt, drift, xi, frozen, build, chol, b, iprm, ref_u, ref_e,
 
 
 @njit(cache=True)
+def _rfd_forces(g, o, n1, nf, S, T, LEN):
+    """The physical bead forces (n1, 3) of the random finite difference's perturbation W
+    (its normals g[o + 3 + 4i …], the beads' positions and bond angles in the state's
+    order; the anchor's ``nf`` fixed components zero): W's bead part, with the chart's
+    correction of the θ-forces as the kernel's (I_GEN, :func:`flagellum.rod.kernels.chart_force`)."""
+    F = np.empty((n1, 3))
+    for i in range(n1):
+        for a in range(3):
+            F[i, a] = g[o + 3 + 4 * i + a] if 3 * i + a >= nf else 0.0
+    for i in range(1, n1):
+        gv = K.chart_force(g[o + 3 + 4 * i + 3], S, T, LEN, i)
+        for a in range(3):
+            F[i, a] -= gv[a]
+            F[i - 1, a] += gv[a]
+    return F
+
+
+@njit(cache=True)
+def _difference_product(perturbed, base, f, scale, out):
+    """out = ``scale`` (perturbed − base) f: the random finite difference's product, with no
+    copy of the matrices."""
+    for i in range(out.shape[0]):
+        acc = 0.0
+        for j in range(out.shape[0]):
+            acc += (perturbed[i, j] - base[i, j]) * f[j]
+        out[i] = scale * acc
+
+
+@njit(cache=True)
 def nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen, build, ms, b,
                        yp, ym, f1, f2, general, chol, drift, limits):
     """:meth:`ImplicitStepper._nonlocal_increment` compiled, for a filament without a cell
@@ -591,50 +621,207 @@ def nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen,
         o = 4 * n1 + nh
         for i in range(n1):
             for a in range(3):
-                zf[i, a] = g[o + 3 + 4 * i + a] if 3 * i + a >= nf else 0.0
-            zm[i] = g[o + 3 + 4 * i + 3]
-        for i in range(n1):
-            for a in range(3):
-                x[i, a] = y[3 + 4 * i + a] + RFD_DELTA * zf[i, a]
+                w = g[o + 3 + 4 * i + a] if 3 * i + a >= nf else 0.0
+                x[i, a] = y[3 + 4 * i + a] + RFD_DELTA * w
         D._correction_into(x, *build, ms)  # ΔM(y + δW), DM keeps ΔM(y)
-        # [ΔM(y + δW) − ΔM(y)] F of the physical bead forces F of the generalized ones
-        # (zf, zm): the chart's correction of the θ-forces, as the kernel's (I_GEN)
         T, E1, E2, LEN, S, A1 = ws[0], ws[1], ws[2], ws[3], ws[4], ws[9]
         K.frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1)
-        F = np.empty(m)
-        for i in range(n1):
-            for a in range(3):
-                F[3 * i + a] = zf[i, a]
-        for i in range(1, n1):
-            gv = K.chart_force(zm[i], S, T, LEN, i)
-            for a in range(3):
-                F[3 * i + a] -= gv[a]
-                F[3 * (i - 1) + a] += gv[a]
-        f = kT / RFD_DELTA
-        for i in range(m):
-            acc = 0.0
-            for j in range(m):
-                acc += (ms[i, j] - dm[i, j]) * F[j]
-            drift[i] = f * acc
+        F = _rfd_forces(g, o, n1, nf, S, T, LEN)
+        _difference_product(ms, dm, F.reshape(m), kT / RFD_DELTA, drift)
     add_kept_terms(y, dt, drift, xi, frozen, build, chol, b, iprm, ref_u, ref_e, ws)
     return renew
 
 
 @njit(cache=True)
+def _cell_local_change(points, frozen, n, build, f, out):
+    """out = E f over a cell's slots (V, beads 1 … n, Ω), E = M_cell,loc(points) −
+    M_cell,loc(frozen) the change of the local mobility
+    (:func:`flagellum.hydro.dynamics.cell_local_mobility`; block-diagonal over the beads, a
+    6×6 block over (V, Ω)) between the mobility points ``frozen`` and ``points``; ``build``
+    :func:`flagellum.hydro.dynamics.cell_build_arguments`."""
+    h, gpar, gperp = build[1], build[2], build[3]
+    radius, aspect, rb, hf = build[5], build[6], build[7], build[8]
+    k = 3 * (n + 1)
+    for i in range(k + 3):
+        out[i] = 0.0
+    for sign, p in ((1.0, points), (-1.0, frozen)):
+        beads = p[:n + 1]
+        T = D._bond_tangents(beads)
+        for i in range(1, n + 1):
+            tx, ty, tz, zpar, zperp, mode = L.bead_friction(T, i, n, h, gpar, gperp, L.CELL, 0.0)
+            o = 3 * i
+            ax, ay, az = L.bead_velocity(f[o], f[o + 1], f[o + 2], tx, ty, tz, zpar, zperp, mode)
+            out[o] += sign * ax
+            out[o + 1] += sign * ay
+            out[o + 2] += sign * az
+        centre, axis = D.cell_frame(p)
+        gi = D._body_block(beads, h, gpar, gperp, centre, axis, rb, hf, radius, aspect)
+        for a in range(6):
+            oa = a if a < 3 else k + a - 3
+            acc = 0.0
+            for c in range(6):
+                acc += gi[a, c] * f[c if c < 3 else k + c - 3]
+            out[oa] += sign * acc
+
+
+@njit(cache=True)
+def cell_nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen, geometry,
+                            build, ms, b, yp, ym, f1, f2, general, chol, drift, limits):
+    """:func:`nonlocal_increment` for a cell body, over its slots q = (V, beads 1 … n, Ω)
+    (:func:`flagellum.hydro.dynamics.cell_mobility`); returns whether it renewed. ``frozen``
+    the mobility points of the last renewal (beads, the body's centre and front pole),
+    ``geometry`` the arguments of :func:`flagellum.hydro.dynamics.cell_points`, ``build``
+    those of :func:`flagellum.hydro.dynamics.cell_correction_points` (symmetric). Renewal
+    as :func:`nonlocal_increment`: ΔM rebuilt, M_s = M_cell,loc + ΔM factorized, and the
+    nonlocal Itô drift kT [ΔM(y + δW) − ΔM(y)] g_W/δ (g_W the slot forces of the
+    perturbation W of beads, bond angles and orientation: the bead forces with the chart's
+    θ-forces, the body's torque J⁻ᵀ(φ) W_φ + d × F_0) kept as the slot force
+    u = M_s⁻¹ v (``drift``). Every step the slot forces
+    ξ' = ξ + u + M_s⁻¹ E (−½ ξ − u + ⅜ M_s⁻¹ E ξ), ξ = √(2kT/Δt) L⁻ᵀ g, go through the
+    kernel, which applies M_s + E (E = M_cell,loc(y) − M_cell,loc(y*)) and the cell's
+    kinematics: the noise M (I + A)^{1/2} ξ + O(A³) (A = M_s⁻¹ E) has the covariance
+    2kT (M_s + E)/Δt to third order in A, and the drift (M_s + E)(I − A) u = v to second
+    (docs/hydrodynamics.md, "Thermal noise")."""
+    n = iprm[K.I_N]
+    n1 = n + 1
+    ny = y.shape[0]
+    K.rechart_all(y, n, ref_u, ref_e, ws[0], ws[1], ws[2], ws[3], ws[4], ws[9])
+    pts = np.empty((n1 + 2, 3))
+    D.cell_points(y, n1, geometry[0], geometry[1], geometry[2], pts)
+    dm = ws[-1]
+    k = 3 * n1 + 3
+    renew = limits[0] <= 0.0 or limits[2] != 0.0 or limits[3] >= limits[4] or \
+        D.limits_used(pts, frozen, n1, limits[0], limits[1]) > 1.0
+    limits[3] = 1.0 if renew else limits[3] + 1.0
+    h, gpar, gperp = build[1], build[2], build[3]
+    radius, aspect, rb, hf = build[5], build[6], build[7], build[8]
+    if renew:
+        D.cell_correction_points(pts, *build, dm)
+        for i in range(n1 + 2):
+            for a in range(3):
+                frozen[i, a] = pts[i, a]
+        for i in range(k):
+            for j in range(k):
+                ms[i, j] = dm[i, j]
+        D.cell_local_points(pts, h, gpar, gperp, radius, aspect, rb, hf, 1.0, ms)
+        c = np.linalg.cholesky(ms)
+        for i in range(k):
+            for j in range(k):
+                chol[i, j] = c[i, j]
+    # ξ = √(2kT/Δt) L⁻ᵀ g over the slots: bead 0's normals for V, the body torque's for Ω
+    xq = np.empty(k)
+    for i in range(3 * n1):
+        xq[i] = g[i]
+    for a in range(3):
+        xq[3 * n1 + a] = g[4 * n1 + 6 + a]
+    _upper_solve_t(chol, xq, k)
+    c = math.sqrt(2.0 * kT / dt)
+    for i in range(k):
+        xq[i] *= c
+    T, E1, E2, LEN, S, A1 = ws[0], ws[1], ws[2], ws[3], ws[4], ws[9]
+    if renew:
+        o = 4 * n1 + 9
+        for i in range(ny):
+            yp[i] = y[i]
+        for i in range(n1):
+            for a in range(3):
+                yp[3 + 4 * i + a] += RFD_DELTA * g[o + 3 + 4 * i + a]
+        for a in range(3):
+            yp[ny - 3 + a] += RFD_DELTA * g[o + ny - 3 + a]
+        ppts = np.empty((n1 + 2, 3))
+        D.cell_points(yp, n1, geometry[0], geometry[1], geometry[2], ppts)
+        D.cell_correction_points(ppts, *build, ms)  # ΔM(y + δW); DM keeps ΔM(y)
+        K.frames(y, n, ref_u, ref_e, T, E1, E2, LEN, S, A1)
+        F = _rfd_forces(g, o, n1, 0, S, T, LEN)
+        gen = np.empty(k)
+        for i in range(3 * n1):
+            gen[i] = F[i // 3, i % 3]
+        d0, d1, d2 = pts[0, 0] - pts[n1, 0], pts[0, 1] - pts[n1, 1], pts[0, 2] - pts[n1, 2]
+        tx, ty, tz = Bd.rotvec_torque(y[ny - 3], y[ny - 2], y[ny - 1], g[o + ny - 3],
+                                      g[o + ny - 2], g[o + ny - 1])
+        gen[3 * n1] = tx + d1 * F[0, 2] - d2 * F[0, 1]
+        gen[3 * n1 + 1] = ty + d2 * F[0, 0] - d0 * F[0, 2]
+        gen[3 * n1 + 2] = tz + d0 * F[0, 1] - d1 * F[0, 0]
+        if iprm[K.I_HOOK] == K.HOOK_CLAMPED:  # the hook frame's θ-force, a torque about t_0 on
+            # the body, less its part about the motor axis m (the hook's own rate there)
+            centre, axis = D.cell_frame(pts)
+            mm = D._motor_axis(pts[0], centre, axis, radius, aspect)
+            w0 = g[o + 6]
+            tm = T[0, 0] * mm[0] + T[0, 1] * mm[1] + T[0, 2] * mm[2]
+            for a in range(3):
+                gen[3 * n1 + a] += w0 * (T[0, a] - tm * mm[a])
+        _difference_product(ms, dm, gen, kT / RFD_DELTA, drift)
+        _lower_solve(chol, drift, k)  # kept as the slot force M_s⁻¹ v
+        _upper_solve_t(chol, drift, k)
+        for i in range(k):
+            xq[i] += drift[i]
+    else:
+        e = np.empty(k)
+        w = np.empty(k)
+        _cell_local_change(pts, frozen, n, build, xq, e)  # E ξ
+        _lower_solve(chol, e, k)
+        _upper_solve_t(chol, e, k)
+        for i in range(k):
+            w[i] = -0.5 * xq[i] - drift[i] + 0.375 * e[i]
+        _cell_local_change(pts, frozen, n, build, w, e)
+        _lower_solve(chol, e, k)
+        _upper_solve_t(chol, e, k)
+        for i in range(k):
+            xq[i] += drift[i] + e[i]
+    xi = np.zeros((n1 + 2, 3))  # bead forces (none on bead 0), the body's force and torque
+    for i in range(1, n1):
+        for a in range(3):
+            xi[i, a] = xq[3 * i + a]
+    for a in range(3):
+        xi[n1, a] = xq[a]
+        xi[n1 + 1, a] = xq[3 * n1 + a]
+    nh = 9
+    zf, zm, zh = np.zeros((n1, 3)), np.zeros(n1), np.zeros(nh)
+    thermal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, b, yp, ym, f1, f2,
+                      zf, zm, zh, np.zeros((n1, 3)), np.zeros(n1), np.zeros(nh), xi, general)
+    return renew
+
+
+def _increment(geometry, y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen, build, ms, b,
+               yp, ym, f1, f2, general, chol, drift, limits):
+    """:func:`nonlocal_increment` (``geometry`` None) or :func:`cell_nonlocal_increment`
+    (``geometry`` a cell body's), chosen by type when Numba compiles the caller."""
+
+
+@overload(_increment)
+def _increment_by_type(geometry, y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen, build,
+                       ms, b, yp, ym, f1, f2, general, chol, drift, limits):
+    if isinstance(geometry, types.NoneType):
+        def filament(geometry, y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen, build,
+                     ms, b, yp, ym, f1, f2, general, chol, drift, limits):
+            return nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen,
+                                      build, ms, b, yp, ym, f1, f2, general, chol, drift, limits)
+        return filament
+
+    def cell(geometry, y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen, build, ms, b,
+             yp, ym, f1, f2, general, chol, drift, limits):
+        return cell_nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen,
+                                       geometry, build, ms, b, yp, ym, f1, f2, general, chol,
+                                       drift, limits)
+    return cell
+
+
+@njit(cache=True)
 def nonlocal_steps(y, t, n_steps, dt, theta, prm, iprm, ref_u, ref_e, ref_m, kT, torques, normals,
                    ws, ab, ipiv, backup, jac_age, jac_every, work, xwork, tol, max_iter, slow, hist,
-                   colors, general, frozen, build, ms, chol, drift, limits, inc):
+                   colors, general, frozen, geometry, build, ms, chol, drift, limits, inc):
     """:func:`implicit_steps` one step at a time, each after its thermal increment from
-    :func:`nonlocal_increment` at y_n (a filament without a cell body): one compiled call
-    per chunk of steps instead of two Python calls per step. ``inc`` (1, ny) scratch; the
-    arguments after ``general`` are :func:`nonlocal_increment`'s (``limits[2]``, the force
+    :func:`nonlocal_increment` at y_n (``geometry`` None) or, with a cell body, from
+    :func:`cell_nonlocal_increment` (``geometry`` its body's, the branch Numba keeps): one
+    compiled call per chunk of steps instead of two Python calls per step. ``inc`` (1, ny)
+    scratch; the arguments after ``general`` are the increment's (``limits[2]``, the force
     flag, is cleared after the first step). Returns (status, steps done, Newton
     iterations, Jacobians, jac_age, renewals) with the status of :func:`implicit_steps`."""
     n_iter, n_jac, renewals = 0, 0, 0
     for j in range(n_steps):
-        if nonlocal_increment(y, dt, kT, normals[j], prm, iprm, ref_u, ref_e, ref_m, ws, frozen,
-                              build, ms, inc[0], work[6], work[7], work[8], work[9], general,
-                              chol, drift, limits):
+        if _increment(geometry, y, dt, kT, normals[j], prm, iprm, ref_u, ref_e, ref_m, ws, frozen,
+                      build, ms, inc[0], work[6], work[7], work[8], work[9], general, chol,
+                      drift, limits):
             renewals += 1
         limits[2] = 0.0
         status, _, it, nj, jac_age = implicit_steps(
@@ -786,7 +973,7 @@ class ImplicitStepper:
         return self.y
 
     def _steps(self, t0, k, dt, times, normals) -> int:
-        if self._nonlocal_noise and not self.model.cell and self.compiled_increment:
+        if self._nonlocal_noise and self.compiled_increment:
             return self._compiled_steps(t0, k, dt, times, normals)
         if self._nonlocal_noise:  # one step at a time: the increment needs the mobility at y_n
             for j in range(k):
@@ -822,12 +1009,19 @@ class ImplicitStepper:
         m = self.model
         if self._fast is None:
             ws = m.kernel_arrays[-1]
-            self._fast = (m.build_arguments(), np.empty_like(ws[-1]), np.empty_like(ws[-1]),
-                          np.zeros(3 * (m.n + 1)))
+            build = m.cell_build_arguments() if m.cell else m.build_arguments()
+            self._fast = (build, np.empty_like(ws[-1]), np.empty_like(ws[-1]),
+                          np.zeros(len(ws[-1])))
         self._limits[:3] = (m.hydrodynamics.refresh, THERMAL_TURN * m.turn_limit * m.h,
                             float(self._kept is None))
         self._limits[4] = THERMAL_HOLD
         return (*self._fast, self._limits)
+
+    def _frozen_arguments(self) -> tuple:
+        """(frozen points, geometry) of the compiled increments: the beads and None, or a cell
+        body's mobility points and :meth:`RodModel.cell_geometry`."""
+        m = self.model
+        return (m.mobility_points, m.cell_geometry()) if m.cell else (m.frozen_beads, None)
 
     def _compiled_steps(self, t0, k, dt, times, normals) -> int:
         m = self.model
@@ -839,8 +1033,8 @@ class ImplicitStepper:
                 torques, np.ascontiguousarray(normals), m.kernel_arrays[-1], self._ab, self._ipiv,
                 self._backup, self._jac_age, self.jac_every, self._work, self._xwork, self.tol,
                 self.max_iter, self.slow, self._hist, m.jacobian_colors(self._kl, self._ku),
-                K.general_flag(m.iprm), m.frozen_beads, build, scratch, chol, drift, limits,
-                np.empty((1, len(self.y))))
+                K.general_flag(m.iprm), *self._frozen_arguments(), build, scratch, chol, drift,
+                limits, np.empty((1, len(self.y))))
         except np.linalg.LinAlgError:
             raise SimulationError(NOT_POSITIVE) from None
         self._kept = True
@@ -882,13 +1076,20 @@ class ImplicitStepper:
         n1 = m.n + 1
         ny = len(y)
         w = self._work
-        if not m.cell and self.compiled_increment:
+        if self.compiled_increment:
             build, scratch, chol, drift, limits = self._fast_arguments()
             b = np.empty(ny)
             try:
-                renewed = nonlocal_increment(y, dt, self.kT, g, prm, iprm, ref_u, ref_e, ref_m, ws,
-                                             m.frozen_beads, build, scratch, b, w[6], w[7], w[8],
-                                             w[9], K.general_flag(iprm), chol, drift, limits)
+                if m.cell:
+                    renewed = cell_nonlocal_increment(
+                        y, dt, self.kT, g, prm, iprm, ref_u, ref_e, ref_m, ws,
+                        *self._frozen_arguments(), build, scratch, b, w[6], w[7], w[8], w[9],
+                        K.general_flag(iprm), chol, drift, limits)
+                else:
+                    renewed = nonlocal_increment(y, dt, self.kT, g, prm, iprm, ref_u, ref_e, ref_m,
+                                                 ws, m.frozen_beads, build, scratch, b, w[6], w[7],
+                                                 w[8], w[9], K.general_flag(iprm), chol, drift,
+                                                 limits)
             except np.linalg.LinAlgError:
                 raise SimulationError(NOT_POSITIVE) from None
             self._kept = True

@@ -15,9 +15,10 @@ import numpy as np
 from ..errors import SimulationError
 from ..helix import DiscreteHelix, discrete_helix
 from ..hydro import body as body_model
-from ..hydro.dynamics import (CellBody, bonds_within, build_arguments, cell_correction,
-                              cell_local_mobility, correction, limits_used, local_mobility,
-                              moving_components, near_beads, renew_into, turn_into, turn_limit)
+from ..hydro.dynamics import (CellBody, bonds_within, build_arguments, cell_build_arguments,
+                              cell_correction_points, cell_frame, cell_local_mobility, cell_points,
+                              correction, limits_used, local_mobility, moving_components,
+                              near_beads, renew_into, turn_into, turn_limit)
 from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
 from ..params import EndLoad, Params
@@ -121,6 +122,7 @@ class RodModel:
         self._zh = np.zeros(3)
         self.last_force = np.zeros(3)  #: elastic force on bead 0 at the last rhs call
         self._colors = None  # (key, (color, lo, hi)) of jacobian_colors
+        self._cell_geometry = None  # cell_geometry's, once
         gp, gn, gr = self.gammas
         ccw, cw = self.motor.law_table()
         b = self.boundary
@@ -437,6 +439,12 @@ class RodModel:
         the first build)."""
         return None if self._frozen is None else self._frozen[:self.n + 1]
 
+    @property
+    def mobility_points(self) -> np.ndarray | None:
+        """The mobility points (:meth:`_mobility_points`: the beads, and a cell body's centre
+        and front pole) at which ΔM was last built or turned (None before the first build)."""
+        return self._frozen
+
     def mobility_use(self, y: np.ndarray) -> float:
         """The fraction of the limits of :meth:`refresh_mobility` that the beads of y have used
         since ΔM was last built or turned: the largest bead displacement over
@@ -480,13 +488,9 @@ class RodModel:
     def _correction(self, x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """ΔM at the mobility points x (:meth:`_mobility_points`), into ``out`` if given."""
         if self.cell:
-            fluid = self.params.fluid
-            dm = cell_correction(x[:self.n + 1], self.h, self.gammas, fluid.filament_radius,
-                                 fluid.viscosity, self._cell_body(x),
-                                 symmetric=self.symmetric_mobility)
             if out is None:
-                return dm
-            out[:] = dm
+                out = np.empty((3 * len(x) - 3, 3 * len(x) - 3))
+            cell_correction_points(x, *self.cell_build_arguments(), out)
             return out
         return correction(x, *self.mobility_arguments(), symmetric=self.symmetric_mobility,
                           out=out)
@@ -506,22 +510,35 @@ class RodModel:
     def _mobility_points(self, y: np.ndarray) -> np.ndarray:
         """The points the nonlocal mobility depends on: the beads, and for a cell body its
         centre and its front pole (which fix its position and orientation)."""
-        x = positions(y)
         if not self.cell:
-            return x
-        b = self.boundary
-        g = body_model.body_geometry(b.body_radius, b.body_aspect, b.motor_offset)
-        q = body_model.rotvec_matrix(y[-3:])
-        centre = x[0] - q @ g.offset
-        return np.vstack([x, centre, centre + b.body_aspect * b.body_radius * (q @ g.axis)])
+            return positions(y)
+        out = np.empty((self.n + 3, 3))
+        cell_points(np.ascontiguousarray(y, dtype=float), self.n + 1, *self.cell_geometry(), out)
+        return out
+
+    def cell_geometry(self) -> tuple:
+        """(axis, motor offset) in the body frame and the polar semi-axis [µm]: the arguments
+        of :func:`~flagellum.hydro.dynamics.cell_points` after the state and n + 1."""
+        if self._cell_geometry is None:
+            b = self.boundary
+            g = body_model.body_geometry(b.body_radius, b.body_aspect, b.motor_offset)
+            self._cell_geometry = (g.axis, g.offset, float(b.body_aspect * b.body_radius))
+        return self._cell_geometry
+
+    def cell_build_arguments(self) -> tuple:
+        """The arguments of :func:`~flagellum.hydro.dynamics.cell_correction_points` after
+        the points (with :attr:`symmetric_mobility`)."""
+        fluid, b = self.params.fluid, self.boundary
+        return cell_build_arguments(self.n, self.h, self.gammas, fluid.filament_radius,
+                                    fluid.viscosity, b.body_radius, b.body_aspect,
+                                    b.hook == "clamped", self.symmetric_mobility)
 
     def _cell_body(self, points: np.ndarray) -> CellBody:
         """The cell body of :meth:`_mobility_points` for :mod:`flagellum.hydro.dynamics`."""
         b = self.boundary
-        centre, front = points[-2], points[-1]
-        clamped = b.hook == "clamped"
-        return CellBody(centre, (front - centre) / np.linalg.norm(front - centre), b.body_radius,
-                        b.body_aspect, 0.5 * self.gammas[1] * self.h ** 3 if clamped else 0.0)
+        centre, axis = cell_frame(np.ascontiguousarray(points, dtype=float))
+        return CellBody(centre, axis, b.body_radius, b.body_aspect,
+                        self.cell_build_arguments()[8])  # (a clamped hook's friction)
 
     def mobility_arguments(self) -> tuple:
         """The arguments of :func:`flagellum.hydro.dynamics.correction` after the positions:

@@ -82,8 +82,8 @@ def test_compiled_nonlocal_increment_is_the_numpy_one(boundary):
     model, the drift as state rates from two applications of the mobility) computes the
     same increment, frozen beads and ΔM from the same normals at the same state (a thermal
     state after 10 steps), to roundoff (measured ≤ 2e-17 of the largest entry; with a cell
-    body 1e-11, see below). Without the clamped hook frame's θ-force on the body the cell's
-    drift was 1.7e-6 of b off."""
+    body up to 3e-10, see below). Without the clamped hook frame's θ-force on the body the
+    cell's drift was 1.7e-6 of b off."""
     p = Params(Filament(length=2.0), Fluid(kT=KT))
     m = RodModel(p, Motor(1.0), boundary, hydrodynamics=SBT)
     st = ImplicitStepper(m, 0.0, m.initial_state(), 5e-5, kT=KT, seed=3)
@@ -105,8 +105,9 @@ def test_compiled_nonlocal_increment_is_the_numpy_one(boundary):
         assert np.abs(again - b).max() <= 1e-13 * np.abs(b).max()
     (b0, f0, d0), (b1, f1, d1) = out
     # a cell's two paths take the drift's difference quotient in another order: their
-    # roundoff, divided by the finite difference's δ = 1e-6, is ≈ 1e-11 of b
-    assert np.abs(b1 - b0).max() <= (1e-10 if m.cell else 1e-13) * np.abs(b0).max()
+    # roundoff, divided by the finite difference's δ = 1e-6, is 1e-11–3e-10 of b (measured;
+    # the clamped hook's missing θ-force had put it at 1.7e-6)
+    assert np.abs(b1 - b0).max() <= (2e-9 if m.cell else 1e-13) * np.abs(b0).max()
     assert np.abs(d1 - d0).max() <= 1e-14 * np.abs(d0).max()
     assert np.abs(f1 - f0).max() <= 1e-15 * np.abs(f0).max()
     assert np.abs(b0).max() > 0

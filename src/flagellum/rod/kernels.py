@@ -473,7 +473,9 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
     the motor speed relative to the body is ω = w0 + b M, and a clamp's or a law's torque
     follows from :func:`drive_torque`. Returns (torque, hook frame's ω (3), body's Ω (3),
     body's velocity V (3), bead 0's velocity (3), m (3), rate ω_hook·m, relative motor speed).
-    Adds the hook term with m to GT[0]; out[18] is the change of the hook energy.
+    Adds the hook term with m to GT[0]; out[18] is the change of the hook energy, out[19] a
+    clamped hook's rate about m relative to the body (0 otherwise), which the hook frame's
+    vector u0 does not take (on t0 = −m it would not move it).
 
     ``width`` ≥ 0: a nonlocal mobility, the frozen ΔM of
     :func:`flagellum.hydro.dynamics.cell_correction` in ``DM`` over the slots (V, beads 1 … n,
@@ -639,6 +641,8 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
     out[16] = out[1] * m[0] + out[2] * m[1] + out[3] * m[2]
     out[17] = w0 + b * torque
     out[18] = e_hook
+    # a clamped hook frame's own rate about m: it leaves the tangent t0 = −m where it is
+    out[19] = r[6, 0] + torque * r[6, 1] if clamped else 0.0
     return out
 
 
@@ -823,6 +827,14 @@ def _rhs_kernel(GENERAL):
             relative = cm[17]
         wz -= omega_frame
         ydot[0], ydot[1], ydot[2] = _cross(wx, wy, wz, y[0], y[1], y[2])
+        if GENERAL and cell and cm[19] != 0.0:  # u0 turns with the body, not with a clamped
+            # hook's turn about m, which moves no tangent on t0 = −m but, a few radians per
+            # thermal step, turned the Newton iterates' u0 (≈ 1e-4 rad off −m) about m and
+            # split the steps
+            cx, cy, cz = _cross(cm[19] * cm[13], cm[19] * cm[14], cm[19] * cm[15], y[0], y[1], y[2])
+            ydot[0] -= cx
+            ydot[1] -= cy
+            ydot[2] -= cz
         dtx, dty, dtz = _cross(wx, wy, wz, tx, ty, tz)
         ydot[6] = wx * tx + wy * ty + wz * tz - (S[0, 0] * dtx + S[0, 1] * dty + S[0, 2] * dtz)
         speed = wz + omega_frame

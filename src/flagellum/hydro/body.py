@@ -107,15 +107,20 @@ def body_geometry(radius: float, aspect: float, motor_offset_deg: float) -> Body
     return BodyGeometry(rot @ np.array([0.0, 0.0, 1.0]), rot @ point, np.array([0.0, 0.0, 1.0]))
 
 
-#: length of the body's block in the kernels' parameter array: the four resistances, then
-#: the body-fixed axis, motor offset and motor axis (3 each)
-BLOCK = 13
+#: offset in the body's block of the rotation R (9 values, row by row, then a flag: 1 to
+#: apply it) by which a frozen nonlocal ΔM is turned, R ΔM Rᵀ, onto the current points
+#: (:meth:`flagellum.integrate.frozen.FrozenMobility.apply`; identity and 0 otherwise)
+ROTATION = 13
+#: length of the body's block in the kernels' parameter array: the four resistances, the
+#: body-fixed axis, motor offset and motor axis (3 each), then the rotation of ΔM
+BLOCK = ROTATION + 10
 
 
 def kernel_block(radius: float, aspect: float, motor_offset_deg: float, viscosity: float) -> np.ndarray:
     """The body's parameters as the kernels read them (:data:`BLOCK` values)."""
     g = body_geometry(radius, aspect, motor_offset_deg)
-    return np.concatenate([body_resistance(radius, aspect, viscosity), g.axis, g.offset, g.motor_axis])
+    return np.concatenate([body_resistance(radius, aspect, viscosity), g.axis, g.offset, g.motor_axis,
+                           np.eye(3).ravel(), [0.0]])
 
 
 # -- orientation ------------------------------------------------------------------------

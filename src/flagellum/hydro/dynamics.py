@@ -656,6 +656,23 @@ def limits_used(x, x_ref, n1, refresh, bond):
     return max(move / refresh, turn / bond)
 
 
+@njit(cache=True)
+def rotated_limits_used(x, x_ref, n1, refresh, bond, R):
+    """:func:`limits_used` after the best rotation R (written) of the points ``x_ref`` about
+    their point 0 onto x (:func:`rigid_fit`, any rotation): the part of the renewal limits
+    that a ΔM turned by R (R ΔM Rᵀ, a free cell's: its mobility depends on relative
+    positions only) has used, the largest residual over ``refresh`` or bond change over
+    ``bond``, whichever is larger."""
+    move = _rigid_fit(x_ref, x, False, False, R)
+    turn = 0.0
+    for i in range(1, n1):
+        for c in range(3):
+            d = x_ref[i, 0] - x_ref[i - 1, 0], x_ref[i, 1] - x_ref[i - 1, 1], x_ref[i, 2] - x_ref[i - 1, 2]
+            rd = R[c, 0] * d[0] + R[c, 1] * d[1] + R[c, 2] * d[2]
+            turn = max(turn, abs(x[i, c] - x[i - 1, c] - rd))
+    return max(move / refresh, turn / bond)
+
+
 def bonds_within(x: np.ndarray, x_ref: np.ndarray, limit: float) -> bool:
     """Whether no bond of the beads x has changed by more than ``limit`` (a length) against
     x_ref: |(x_{i+1} − x_i) − (x_ref,i+1 − x_ref,i)| ≤ limit."""
@@ -884,4 +901,5 @@ __all__ = ["CellBody", "Hydrodynamics", "MODELS", "REFRESH", "body_flow", "bonds
            "cell_local_mobility", "cell_local_points", "cell_mobility", "cell_points",
            "correction", "effective_mobility", "grand_mobility", "local_mobility",
            "moving_components", "near_beads", "renew_into", "rigid_fit", "rotate_correction",
+           "rotated_limits_used",
            "sphere_centre", "sphere_coupling", "turn_into", "turn_limit"]

@@ -458,6 +458,30 @@ def _cell_bead_correction(DM, DR, V, g, n, width):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def _turn_rows(rot, a, column, back):
+    """Turn the 3-vectors of ``a`` in place by R (``rot``, 9 values row by row) or, with
+    ``back``, by Rᵀ: the rows of a 2-D array (n, 3) when ``column`` is 0, else each triplet
+    of rows (0–2, 3–5) of each column of a (6, c) array."""
+    if column == 0:
+        for k in range(a.shape[0]):
+            x, y, z = a[k, 0], a[k, 1], a[k, 2]
+            for i in range(3):
+                if back:
+                    a[k, i] = rot[i] * x + rot[3 + i] * y + rot[6 + i] * z
+                else:
+                    a[k, i] = rot[3 * i] * x + rot[3 * i + 1] * y + rot[3 * i + 2] * z
+        return
+    for c in range(a.shape[1]):
+        for t in range(2):
+            x, y, z = a[3 * t, c], a[3 * t + 1, c], a[3 * t + 2, c]
+            for i in range(3):
+                if back:
+                    a[3 * t + i, c] = rot[i] * x + rot[3 + i] * y + rot[6 + i] * z
+                else:
+                    a[3 * t + i, c] = rot[3 * i] * x + rot[3 * i + 1] * y + rot[3 * i + 2] * z
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
 def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
     """Motion of a cell body (anchor ``ANCHOR_CELL``) and of the hook frame on it.
 
@@ -586,6 +610,12 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
             if clamped:
                 for i in range(3):
                     gb[3 + i, c] -= m[i] * r[6, c]
+    turned = width >= 0 and prm[off + B.ROTATION + 9] != 0.0
+    if turned:  # ΔM turned by R (R ΔM Rᵀ g): its forces turned back by Rᵀ, its velocities by R
+        rot = prm[off + B.ROTATION:off + B.ROTATION + 9]
+        _turn_rows(rot, gb, 1, True)
+        DR = DR.copy()
+        _turn_rows(rot, DR, 0, True)
     _solve2(G, r, size)
     wh0, wh1 = np.empty(3), np.empty(3)
     if clamped:
@@ -611,6 +641,8 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
             for k in range(1, kmax + 1):
                 o = 3 * k
                 dq[ii, 0] -= DM[row, o] * DR[k, 0] + DM[row, o + 1] * DR[k, 1] + DM[row, o + 2] * DR[k, 2]
+        if turned:
+            _turn_rows(rot, dq, 1, False)
         w0 -= dq[3, 0] * m[0] + dq[4, 0] * m[1] + dq[5, 0] * m[2]
         b -= dq[3, 1] * m[0] + dq[4, 1] * m[1] + dq[5, 1] * m[2]
     if iprm[I_DRIVE] == DRIVE_TORQUE:
@@ -635,7 +667,15 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
         g = CW[:, 4]
         for i in range(6):
             g[i] = gb[i, 0] + torque * gb[i, 1]
-        _cell_bead_correction(DM, DR, V, g, n, width)
+        if turned:
+            dv = np.zeros((n + 1, 3))
+            _cell_bead_correction(DM, DR, dv, g, n, width)
+            _turn_rows(rot, dv, 0, False)
+            for k in range(1, n + 1):
+                for a in range(3):
+                    V[k, a] += dv[k, a]
+        else:
+            _cell_bead_correction(DM, DR, V, g, n, width)
     ox, oy, oz = _cross(out[4], out[5], out[6], d[0], d[1], d[2])
     out[10], out[11], out[12] = out[7] + ox, out[8] + oy, out[9] + oz  # bead 0 = X + d
     out[16] = out[1] * m[0] + out[2] * m[1] + out[3] * m[2]

@@ -18,7 +18,7 @@ from ..hydro import body as body_model
 from ..hydro.dynamics import (CellBody, bonds_within, build_arguments, cell_build_arguments,
                               cell_correction_points, cell_frame, cell_local_mobility, cell_points,
                               correction, limits_used, local_mobility, moving_components,
-                              near_beads, renew_into, turn_into, turn_limit)
+                              near_beads, renew_into, rotated_limits_used, turn_into, turn_limit)
 from ..hydro.options import Hydrodynamics
 from ..motor import Boundary, Motor
 from ..params import EndLoad, Params
@@ -128,6 +128,8 @@ class RodModel:
         b = self.boundary
         cell = (body_model.kernel_block(b.body_radius, b.body_aspect, b.motor_offset,
                                         self.params.fluid.viscosity) if self.cell else ())
+        self._rotation = slice(K.P_LAW + len(ccw) + len(cw) + body_model.ROTATION,
+                               K.P_LAW + len(ccw) + len(cw) + body_model.ROTATION + 10)
         self.prm = np.array([self.h, f.bend_rigidity, f.twist_rigidity, f.stretch_modulus,
                              f.kappa0, f.torsion, self.boundary.hook_stiffness,
                              self.sphere_drag, gp, gn, gr, self.motor(0.0), self.omega_frame, 1.0,
@@ -405,11 +407,13 @@ class RodModel:
                            self.build_arguments())
                 return True
             if turn_into(x, self._frozen, dm, dm, *self.turn_arguments(due)):
+                self._unturned()
                 return True
         if self._frozen is None:
             self._frozen = np.empty_like(x)
         self._correction(x, out=dm)
         self._frozen[:] = x
+        self._unturned()
         return True
 
     def turn_arguments(self, due: bool = True) -> tuple:
@@ -445,15 +449,43 @@ class RodModel:
         and front pole) at which ΔM was last built or turned (None before the first build)."""
         return self._frozen
 
-    def mobility_use(self, y: np.ndarray) -> float:
+    def mobility_use(self, y: np.ndarray, rotated: bool = False) -> float:
         """The fraction of the limits of :meth:`refresh_mobility` that the beads of y have used
         since ΔM was last built or turned: the largest bead displacement over
         ``hydrodynamics.refresh`` or the largest bond change over the turn limit's length,
-        whichever is larger (0 for the local model or before the first build)."""
+        whichever is larger (0 for the local model or before the first build). ``rotated``
+        (a cell body): after the best rotation of the frozen points onto y's, which
+        :meth:`turn_mobility` applies."""
         if not self._nonlocal or self._frozen is None:
             return 0.0
-        return limits_used(np.ascontiguousarray(self._mobility_points(y)), self._frozen,
-                           self.n + 1, self.hydrodynamics.refresh, self.turn_limit * self.h)
+        x = np.ascontiguousarray(self._mobility_points(y))
+        args = (self._frozen, self.n + 1, self.hydrodynamics.refresh, self.turn_limit * self.h)
+        if rotated:
+            return rotated_limits_used(x, *args, np.empty((3, 3)))
+        return limits_used(x, *args)
+
+    def turn_mobility(self, y: np.ndarray) -> float:
+        """A cell body: let the kernel apply the frozen ΔM turned by the best rotation R of the
+        frozen points onto y's, R ΔM Rᵀ (its forces turned by Rᵀ, its velocities by R: the
+        mobility of the turned cell, by the isotropy of Stokes flow), until the next build;
+        returns the part of the limits used after the turn (:meth:`mobility_use`)."""
+        if self._frozen is None or self.hydrodynamics.refresh <= 0.0:  # (0: rebuilt at every
+            return 0.0  # right-hand side, :meth:`rhs`)
+        R = np.empty((3, 3))
+        used = rotated_limits_used(np.ascontiguousarray(self._mobility_points(y)), self._frozen,
+                                   self.n + 1, self.hydrodynamics.refresh,
+                                   self.turn_limit * self.h, R)
+        self.prm[self._rotation] = (*R.ravel(), 1.0)
+        return used
+
+    def _unturned(self) -> None:
+        """ΔM applied as built (a cell body's rotation of :meth:`turn_mobility` off)."""
+        if self.cell:
+            self.prm[self._rotation] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+
+    def correction_at_points(self, x: np.ndarray) -> np.ndarray:
+        """ΔM built at the mobility points x (:meth:`_mobility_points`' layout)."""
+        return self._correction(np.ascontiguousarray(x, dtype=float))
 
     def correction_at(self, y: np.ndarray) -> np.ndarray:
         """ΔM built at state y (returned, the frozen one left as it is; with

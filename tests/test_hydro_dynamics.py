@@ -200,17 +200,23 @@ def test_fluid_force_on_filament_and_body_balances(boundary):
         assert abs(total[2]) < 1e-9 * scale and np.abs(total[:2]).max() > 1e-6 * scale
 
 
-@pytest.mark.parametrize("thermal", [False, True])
+@pytest.mark.parametrize("thermal", [False, True, "cell"])
 def test_sbt_run_killed_after_a_checkpoint_resumes_bit_identical(tmp_path, thermal):
     """A nonlocal run SIGKILLed after its first checkpoint resumes (ΔM rebuilt where the
     integrator restarts) to the records of the run that never stopped; thermal: the
-    fixed-step scheme, whose kept thermal mobility (factor, drift) is renewed there too."""
+    fixed-step scheme, whose kept thermal mobility (factor, drift) is renewed there too;
+    cell: an E. coli-like cell on CVODE, whose ΔM is turned per right-hand side (the
+    restart starts without a turn, as a new stepper does)."""
     import os
     import signal
 
     from flagellum.io import RECORD_FIELDS, read_trajectory
 
     def new():
+        if thermal == "cell":
+            return Simulator(Params.from_flat({"length": 2.0}), Motor(1.3),
+                             Boundary(anchor="free", body_radius=0.44, body_aspect=2.5 / 0.88,
+                                      hook="clamped"), hydrodynamics=SBT)
         if thermal:
             return Simulator(Params.from_flat({"length": 2.0}), Motor(0.5), hydrodynamics=SBT,
                              thermal=True, seed=5, solver=SolverOptions(method="implicit"))

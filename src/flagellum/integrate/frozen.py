@@ -290,9 +290,12 @@ class FrozenMobility:
         return float(self.plan[F_LAST])
 
     def reset(self, t0: float) -> None:
-        """Start over at t0 (a restarted stepper): the ΔM built last as it is, no secant yet,
-        the next interval planned from the bead speeds."""
+        """Start over at t0 (a restarted stepper): the ΔM built last as it is, no secant and
+        no turn yet (a resumed run's new stepper starts so too), the next interval planned
+        from the bead speeds."""
         self._off()
+        self.turning = False
+        self.model.unturn_mobility()
         self.plan[F_LAST], self.plan[F_PLAN] = float(t0), 0.0
 
     def _off(self) -> None:

@@ -407,13 +407,13 @@ class RodModel:
                            self.build_arguments())
                 return True
             if turn_into(x, self._frozen, dm, dm, *self.turn_arguments(due)):
-                self._unturned()
+                self.unturn_mobility()
                 return True
         if self._frozen is None:
             self._frozen = np.empty_like(x)
         self._correction(x, out=dm)
         self._frozen[:] = x
-        self._unturned()
+        self.unturn_mobility()
         return True
 
     def turn_arguments(self, due: bool = True) -> tuple:
@@ -478,7 +478,7 @@ class RodModel:
         self.prm[self._rotation] = (*R.ravel(), 1.0)
         return used
 
-    def _unturned(self) -> None:
+    def unturn_mobility(self) -> None:
         """ΔM applied as built (a cell body's rotation of :meth:`turn_mobility` off)."""
         if self.cell:
             self.prm[self._rotation] = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0)

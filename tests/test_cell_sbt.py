@@ -85,9 +85,12 @@ def test_kept_cell_mobility_has_the_noise_of_the_applied_one(hook, monkeypatch):
     renewal's points, corrected in force space to ξ' = (I − ½A + ⅜A²) ξ (A = M_s⁻¹ E,
     E = M_cell,loc(y) − M_cell,loc(y*)) and applied by the kernel through M_s + E and the
     cell's kinematics K. The increments are linear in the slots' normals (the drift's parts
-    do not depend on them), so their covariance is the product of their columns. Closed form
-    (algebra): 2kTΔt K P M_s⁻¹ Pᵀ Kᵀ, P = (M_s + E)(I − ½A + ⅜A²), to roundoff; it differs
-    from the applied mobility's K (M_s + E) Kᵀ at third order in A. For scale: at a state
+    do not depend on them), so their covariance is the product of their columns. The kept
+    mobility turns with the cell: with the best rotation R of the renewal's points onto the
+    state's (the tested states turned by 1.9° and 3.0°), E = M_cell,loc(Rᵀ y) − M_cell,loc(y*)
+    and the noise ℛ ξ' goes through ℛ (M_s + E) ℛᵀ (ℛ: R on every slot). Closed form
+    (algebra): 2kTΔt K P M_s⁻¹ Pᵀ Kᵀ, P = ℛ (M_s + E)(I − ½A + ⅜A²), to roundoff; it differs
+    from the applied mobility's K (M_loc(y) + ℛ ΔM ℛᵀ) Kᵀ at third order in A. For scale: at a state
     kept since the renewal whose bonds have turned by 0.3–0.5 of the turn limit (the
     renewal's THERMAL_TURN; ``refresh`` 0.5 µm, so that they decide), K E Kᵀ is 6–14 % of
     the largest entry, the third-order term 0.04–0.7 % (bound 2 %) and the uncorrected
@@ -102,7 +105,8 @@ def test_kept_cell_mobility_has_the_noise_of_the_applied_one(hook, monkeypatch):
     st.advance(2e-4)
     for _ in range(200):  # on to a state kept since the renewal, with most of the limits used
         st.advance(st.t + dt)
-        if st._limits[3] >= 2 and 0.3 < m.mobility_use(st.y) < 0.95 * BR.THERMAL_TURN:
+        used = min(m.mobility_use(st.y), m.mobility_use(st.y, rotated=True))
+        if st._limits[3] >= 2 and 0.3 < used < 0.95 * BR.THERMAL_TURN:
             break
     else:
         pytest.fail("no kept state with 0.3–0.475 of the turn limit used")
@@ -127,16 +131,24 @@ def test_kept_cell_mobility_has_the_noise_of_the_applied_one(hook, monkeypatch):
         return cell_local_mobility(points[:n1], h, gpar, gperp, p.fluid.viscosity,
                                    m._cell_body(points))
 
-    E = local(pts) - local(frozen)
+    # the kept mobility turned by the best rotation R of the frozen points (identity where
+    # that left more): E = M_loc(Rᵀ y) − M_loc(y*), applied as ℛ (M_s + E) ℛᵀ
+    rot = m.prm[m._rotation]
+    R = rot[:9].reshape(3, 3) if rot[9] else np.eye(3)
+    back = frozen[0] + (pts - pts[0]) @ R
+    E = local(back) - local(frozen)
     ms = local(frozen) + m.kernel_arrays[-1][-1]
     A = np.linalg.solve(ms, E)
-    P = (ms + E) @ (np.eye(len(A)) - A / 2 + 3 * A @ A / 8)
+    turn = np.kron(np.eye(len(A) // 3), R)
+    P = turn @ (ms + E) @ (np.eye(len(A)) - A / 2 + 3 * A @ A / 8)
     K = _slot_map(m, y)
     expect = K @ P @ np.linalg.solve(ms, P.T) @ K.T
-    applied = K @ (ms + E) @ K.T
+    applied = K @ (local(pts) + turn @ m.kernel_arrays[-1][-1] @ turn.T) @ K.T
+    E = turn @ E @ turn.T
     scale = np.abs(applied).max()
     assert np.abs(cov - expect).max() <= 1e-9 * scale
     third = np.abs(expect - applied).max()
+    ms = turn @ ms @ turn.T
     raw = K @ (ms + E) @ np.linalg.solve(ms, (ms + E).T) @ K.T  # ξ through M_s + E, uncorrected
     assert np.abs(K @ E @ K.T).max() > 0.05 * scale  # a real test: the first-order term is large
     assert third < 0.02 * scale
@@ -309,3 +321,81 @@ def test_swimming_cell_turns_its_mobility_and_follows_the_unfrozen_run(monkeypat
     ref = centre(Hydrodynamics("sbt", refresh=0.0), method="cvode", rtol=1e-8)
     assert np.abs(run - ref).max() < 1e-3
     assert turned > 0
+
+
+def _turn_state(m, y, R):
+    """The state y turned rigidly by R about bead 0, in charts turned with it (the model's
+    reference vectors turned in place: the same material frames, turned)."""
+    from scipy.spatial.transform import Rotation
+
+    yr = y.copy()
+    x = positions(y)
+    yr[:3] = R @ y[:3]
+    beads = yr[3:3 + 4 * (m.n + 1)].reshape(-1, 4)
+    beads[:, :3] = x[0] + (x - x[0]) @ R.T
+    m.ref_u[:] = m.ref_u @ R.T
+    m.ref_e[:] = m.ref_e @ R.T
+    yr[-3:] = Rotation.from_matrix(R @ Bd.rotvec_matrix(y[-3:])).as_rotvec()
+    return yr
+
+
+@pytest.mark.parametrize("hook", ["free", "clamped"])
+def test_kept_cell_mobility_turns_with_the_cell(hook, monkeypatch):
+    """A cell's kept thermal mobility turns with the cell (integrate.brownian.
+    cell_nonlocal_increment): at a state turned rigidly by R (0.5 rad) since the renewal,
+    which used the refresh distance 25 times over, the mobility is still kept, and the
+    increments have the covariance 2kTΔt K M_s(y_R) Kᵀ of the turned cell's own symmetric
+    mobility (hydro.dynamics.cell_mobility, built there: the isotropy of Stokes flow,
+    M_s(Rx) = ℛ M_s(x) ℛᵀ) to roundoff, and the kept Itô drift turns with it: its part of
+    the increment moves the beads by R times what it does at the renewal's state."""
+    monkeypatch.setattr(BR, "THERMAL_HOLD", 10 ** 6)
+    p = Params(Filament(length=2.0), Fluid(kT=KT))
+    bd = Boundary(anchor="free", body_radius=0.5, body_aspect=2.0, motor_offset=30.0, hook=hook)
+    m = RodModel(p, Motor(1.0), bd, hydrodynamics=Hydrodynamics("sbt"))
+    dt = 1e-5
+    st = ImplicitStepper(m, 0.0, m.initial_state(), dt, kT=KT, seed=3)
+    st.advance(1e-4)  # a generic state
+    y = st.y.copy()
+    n1 = m.n + 1
+    rng = np.random.default_rng(2)
+    st.reset(st.t, y)  # renewed at y, with the drift sampled there
+    st._nonlocal_increment(y.copy(), rng.standard_normal(st._n_normals), dt)
+    renewals = st.n_renewals
+    drift = st._fast[3]
+
+    def drift_part(state):
+        zero = np.zeros(st._n_normals)
+        with_drift = st._nonlocal_increment(state.copy(), zero, dt)
+        kept = drift.copy()
+        drift[:] = 0.0
+        without = st._nonlocal_increment(state.copy(), zero, dt)
+        drift[:] = kept
+        return positions(with_drift - without)
+
+    at_renewal = drift_part(y)
+    R = _rotation(7)
+    yr = _turn_state(m, y, R)
+    from flagellum.hydro.dynamics import limits_used
+
+    assert limits_used(m._mobility_points(yr), m.mobility_points, n1, m.hydrodynamics.refresh,
+                       m.turn_limit * m.h) > 25
+    turned = drift_part(yr)
+    assert np.abs(at_renewal).max() > 0
+    assert np.abs(turned - at_renewal @ R.T).max() <= 1e-9 * np.abs(at_renewal).max()
+    slots = np.r_[0:3 * n1, 4 * n1 + 6:4 * n1 + 9]
+    zero = np.zeros(st._n_normals)
+    b0 = _displacement(st._nonlocal_increment(yr.copy(), zero, dt))
+    cols = []
+    for j in slots:
+        g = zero.copy()
+        g[j] = 1.0
+        cols.append(_displacement(st._nonlocal_increment(yr.copy(), g, dt)) - b0)
+    assert st.n_renewals == renewals  # all at the kept mobility
+    assert m.prm[m._rotation][-1] == 1.0  # applied turned
+    cov = np.array(cols).T @ np.array(cols) / (2 * KT * dt)
+    x = positions(yr)
+    me = cell_mobility(x, p.fluid.filament_radius, p.fluid.viscosity,
+                       m._cell_body(m._mobility_points(yr)))
+    K = _slot_map(m, yr)
+    expect = K @ (0.5 * (me + me.T)) @ K.T
+    assert np.abs(cov - expect).max() <= 1e-9 * np.abs(expect).max()

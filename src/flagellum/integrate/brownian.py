@@ -665,6 +665,17 @@ def _cell_local_change(points, frozen, n, build, f, out):
 
 
 @njit(cache=True)
+def _set_turn(prm, iprm, R, turned):
+    """Let the kernel apply the frozen ΔM turned by R, R ΔM Rᵀ (``turned``), or as built:
+    the rotation in the cell body's block (:data:`flagellum.hydro.body.ROTATION`)."""
+    off = K.P_LAW + 2 * (iprm[K.I_NLAW] + iprm[K.I_NLAW_CW]) + Bd.ROTATION
+    for a in range(3):
+        for c in range(3):
+            prm[off + 3 * a + c] = R[a, c]
+    prm[off + 9] = 1.0 if turned else 0.0
+
+
+@njit(cache=True)
 def cell_nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen, geometry,
                             build, ms, b, yp, ym, f1, f2, general, chol, drift, limits):
     """:func:`nonlocal_increment` for a cell body, over its slots q = (V, beads 1 … n, Ω)
@@ -690,9 +701,20 @@ def cell_nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, fr
     D.cell_points(y, n1, geometry[0], geometry[1], geometry[2], pts)
     dm = ws[-1]
     k = 3 * n1 + 3
-    renew = limits[0] <= 0.0 or limits[2] != 0.0 or limits[3] >= limits[4] or \
-        D.limits_used(pts, frozen, n1, limits[0], limits[1]) > 1.0
+    R = np.eye(3)
+    renew = limits[0] <= 0.0 or limits[2] != 0.0 or limits[3] >= limits[4]
+    turned = False
+    if not renew:  # the limits used after the best rotation of the frozen points, or without
+        fit = np.empty((3, 3))
+        used = D.rotated_limits_used(pts, frozen, n1, limits[0], limits[1], fit)
+        plain = D.limits_used(pts, frozen, n1, limits[0], limits[1])
+        turned = used < plain
+        if turned:
+            R[:, :] = fit
+        renew = min(used, plain) > 1.0
+        turned = turned and not renew
     limits[3] = 1.0 if renew else limits[3] + 1.0
+    _set_turn(prm, iprm, R, turned)
     h, gpar, gperp = build[1], build[2], build[3]
     radius, aspect, rb, hf = build[5], build[6], build[7], build[8]
     if renew:
@@ -755,19 +777,29 @@ def cell_nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, fr
         _upper_solve_t(chol, drift, k)
         for i in range(k):
             xq[i] += drift[i]
-    else:
+    else:  # in the renewal's orientation: the points turned back, Q = Rᵀ P about point 0
+        q = np.empty_like(pts)
+        for i in range(n1 + 2):
+            for a in range(3):
+                q[i, a] = frozen[0, a] + R[0, a] * (pts[i, 0] - pts[0, 0]) + \
+                    R[1, a] * (pts[i, 1] - pts[0, 1]) + R[2, a] * (pts[i, 2] - pts[0, 2])
         e = np.empty(k)
         w = np.empty(k)
-        _cell_local_change(pts, frozen, n, build, xq, e)  # E ξ
+        _cell_local_change(q, frozen, n, build, xq, e)  # E ξ
         _lower_solve(chol, e, k)
         _upper_solve_t(chol, e, k)
         for i in range(k):
             w[i] = -0.5 * xq[i] - drift[i] + 0.375 * e[i]
-        _cell_local_change(pts, frozen, n, build, w, e)
+        _cell_local_change(q, frozen, n, build, w, e)
         _lower_solve(chol, e, k)
         _upper_solve_t(chol, e, k)
         for i in range(k):
             xq[i] += drift[i] + e[i]
+        if turned:  # the slot forces turned by R, as the cell (each slot a 3-vector)
+            for i in range(0, k, 3):
+                a0, a1, a2 = xq[i], xq[i + 1], xq[i + 2]
+                for a in range(3):
+                    xq[i + a] = R[a, 0] * a0 + R[a, 1] * a1 + R[a, 2] * a2
     xi = np.zeros((n1 + 2, 3))  # bead forces (none on bead 0), the body's force and torque
     for i in range(1, n1):
         for a in range(3):

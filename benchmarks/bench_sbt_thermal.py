@@ -6,7 +6,7 @@ this machine (docs/hydrodynamics.md, "Thermal cost").
 Regimes, N = 50, M = 1 pN·µm, the drift-implicit scheme at its default Δt, seed 1, from rest:
 the anchored filament (``thermal_M1`` of flagellum.bench), the same on a load sphere
 (a = 1 µm) and as a free swimmer with a sphere (a = 0.5 µm), and a whole cell (free body,
-a = 1 µm; its thermal mobility is renewed at every step). Each is run with RFT, with SBT
+a = 1 µm; its thermal mobility kept and turned with the cell). Each is run with RFT, with SBT
 renewed at every step (``refresh`` 0) and with SBT at the default ``refresh`` (the mobility,
 its factor and the Itô drift kept between renewals), after an untimed 2-ms run of each.
 CPU seconds (``time.process_time``) of the whole ``Simulator.run``, its steps, and the

@@ -78,6 +78,22 @@ def test_cell_noise_has_the_covariance_of_the_coupled_mobility(hook):
     assert np.linalg.norm(cov - ml) / np.linalg.norm(ml) > 3 * rel
 
 
+def _increment_covariance(st, y, dt):
+    """The covariance / (2kTΔt) of a cell's thermal increments at y (beads and orientation)
+    from the stepper ``st``: they are linear in the slots' normals (V, beads 1 … n, Ω; the
+    drift's parts do not depend on them), so it is the product of their columns."""
+    n1 = st.model.n + 1
+    slots = np.r_[0:3 * n1, 4 * n1 + 6:4 * n1 + 9]
+    zero = np.zeros(st._n_normals)
+    b0 = _displacement(st._nonlocal_increment(y.copy(), zero, dt))
+    cols = []
+    for j in slots:
+        g = zero.copy()
+        g[j] = 1.0
+        cols.append(_displacement(st._nonlocal_increment(y.copy(), g, dt)) - b0)
+    return np.array(cols).T @ np.array(cols) / (2 * KT * dt)
+
+
 @pytest.mark.parametrize("hook", ["free", "clamped"])
 def test_kept_cell_mobility_has_the_noise_of_the_applied_one(hook, monkeypatch):
     """Between renewals a cell's thermal mobility is kept (integrate.brownian.
@@ -115,16 +131,8 @@ def test_kept_cell_mobility_has_the_noise_of_the_applied_one(hook, monkeypatch):
     pts, frozen = m._mobility_points(y), m.mobility_points.copy()
     assert np.abs(pts - frozen).max() > 1e-3
     n1 = m.n + 1
-    slots = np.r_[0:3 * n1, 4 * n1 + 6:4 * n1 + 9]  # the normals of V, beads 1 … n and Ω
-    zero = np.zeros(st._n_normals)
-    b0 = _displacement(st._nonlocal_increment(y.copy(), zero, dt))
-    cols = []
-    for j in slots:
-        g = zero.copy()
-        g[j] = 1.0
-        cols.append(_displacement(st._nonlocal_increment(y.copy(), g, dt)) - b0)
+    cov = _increment_covariance(st, y, dt)
     assert st.n_renewals == renewals  # all at the kept mobility
-    cov = np.array(cols).T @ np.array(cols) / (2 * KT * dt)
     h, (gpar, gperp, _) = m.h, m.gammas
 
     def local(points):
@@ -382,17 +390,9 @@ def test_kept_cell_mobility_turns_with_the_cell(hook, monkeypatch):
     turned = drift_part(yr)
     assert np.abs(at_renewal).max() > 0
     assert np.abs(turned - at_renewal @ R.T).max() <= 1e-9 * np.abs(at_renewal).max()
-    slots = np.r_[0:3 * n1, 4 * n1 + 6:4 * n1 + 9]
-    zero = np.zeros(st._n_normals)
-    b0 = _displacement(st._nonlocal_increment(yr.copy(), zero, dt))
-    cols = []
-    for j in slots:
-        g = zero.copy()
-        g[j] = 1.0
-        cols.append(_displacement(st._nonlocal_increment(yr.copy(), g, dt)) - b0)
+    cov = _increment_covariance(st, yr, dt)
     assert st.n_renewals == renewals  # all at the kept mobility
     assert m.prm[m._rotation][-1] == 1.0  # applied turned
-    cov = np.array(cols).T @ np.array(cols) / (2 * KT * dt)
     x = positions(yr)
     me = cell_mobility(x, p.fluid.filament_radius, p.fluid.viscosity,
                        m._cell_body(m._mobility_points(yr)))

@@ -399,3 +399,45 @@ def test_kept_cell_mobility_turns_with_the_cell(hook, monkeypatch):
     K = _slot_map(m, yr)
     expect = K @ (0.5 * (me + me.T)) @ K.T
     assert np.abs(cov - expect).max() <= 1e-9 * np.abs(expect).max()
+
+
+def test_cell_secant_weight_in_the_kernel_is_the_written_matrix():
+    """A cell's secant model applied by its weight (prm[P_SECANT] = w: the kernel applies
+    DM + w DG, integrate.frozen.FrozenMobility.apply on CVODE) gives the right-hand side of
+    the matrix DM + w DG written out, to roundoff: with all of ΔM (the run's operator) and
+    with its near-field band (the operator the coloured Jacobian differentiates), for a free
+    and a clamped hook. Without the slope the difference is of the order of w DG."""
+    from flagellum.rod import kernels as K
+
+    rng = np.random.default_rng(4)
+    for hook in ("free", "clamped"):
+        bd = Boundary(anchor="free", body_radius=0.5, body_aspect=2.0, motor_offset=30.0, hook=hook)
+        m = RodModel(Params(Filament(length=2.0)), Motor(1.0), bd, hydrodynamics=SBT)
+        y = m.initial_state()
+        y[3:-3] += rng.normal(0.0, 0.01, len(y) - 6)
+        y[-3:] = [0.1, -0.2, 0.3]
+        m.refresh_mobility(y, force=True)
+        ws = m.kernel_arrays[-1]
+        dm, dg = ws[-1], ws[-2]
+        built = dm.copy()
+        dg[:] = 0.05 * rng.normal(size=dg.shape) * np.abs(built).max()
+        w = 0.7
+        for hydro in (m.iprm[K.I_HYDRO], K.HYDRO_BANDED):
+            ip = m.iprm.copy()
+            ip[K.I_HYDRO] = hydro
+
+            def rhs():
+                f = np.zeros(m.state_size)
+                m.rhs_kernel(y, f, m.prm, ip, m.ref_u, m.ref_e, m.ref_m, m._zf, m._zm, m._zh, ws)
+                return f
+
+            m.prm[K.P_SECANT] = w
+            weighted = rhs()
+            m.prm[K.P_SECANT] = 0.0
+            dm[:] = built + w * dg
+            written = rhs()
+            dm[:] = built
+            plain = rhs()
+            scale = np.abs(written).max()
+            assert np.abs(weighted - written).max() <= 1e-12 * scale
+            assert np.abs(plain - written).max() > 1e-4 * scale

@@ -439,9 +439,9 @@ def _solve2(G, r, size):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def _cell_bead_correction(DM, DR, V, g, n, width):
-    """V[k] += ΔM g for beads k = 1 … n over the cell's slots (V, beads, Ω; F_j = −DR[j]),
-    blocks at most ``width`` beads apart (the body's slots count as bead 0)."""
+def _cell_bead_correction(DM, scale, DR, V, g, n, width):
+    """V[k] += ``scale`` DM g for beads k = 1 … n over the cell's slots (V, beads, Ω;
+    F_j = −DR[j]), blocks at most ``width`` beads apart (the body's slots count as bead 0)."""
     last = 3 * (n + 1)
     for k in range(1, n + 1):
         lo, hi = max(1, k - width), min(n, k + width)
@@ -454,16 +454,35 @@ def _cell_bead_correction(DM, DR, V, g, n, width):
             for j in range(lo, hi + 1):
                 c = 3 * j
                 acc -= DM[row, c] * DR[j, 0] + DM[row, c + 1] * DR[j, 1] + DM[row, c + 2] * DR[j, 2]
-            V[k, a] += acc
+            V[k, a] += scale * acc
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def _cell_slot_product(DM, DR, g, V, n, rot):
-    """V[k] += ΔM g for beads k = 1 … n with all of ΔM over the cell's slots (V, beads, Ω;
-    the body's force and torque g[:6], bead forces −DR[1:]): one dense matrix–vector product
-    (BLAS; the hand loop of :func:`_cell_bead_correction` over all blocks took ≈ 3× as
-    long at N = 50), its bead rows turned by R (``rot``, 9 values row by row) unless
-    ``rot`` is empty."""
+def _cell_body_rows(DM, scale, gb, DR, dq, n, kmax):
+    """dq += ``scale`` times DM's rows of the body's slots (V, Ω) applied to the body's
+    generalized forces ``gb`` (column 0: without the motor torque, 1: per unit torque) and,
+    in column 0, to the bead forces −DR[k] of beads k ≤ ``kmax``."""
+    last = 3 * (n + 1)
+    for ii in range(6):
+        row = ii if ii < 3 else last + ii - 3
+        for c in range(2):
+            acc = 0.0
+            for q in range(3):
+                acc += DM[row, q] * gb[q, c] + DM[row, last + q] * gb[3 + q, c]
+            if c == 0:
+                for k in range(1, kmax + 1):
+                    o = 3 * k
+                    acc -= DM[row, o] * DR[k, 0] + DM[row, o + 1] * DR[k, 1] + DM[row, o + 2] * DR[k, 2]
+            dq[ii, c] += scale * acc
+
+
+@njit(cache=True, fastmath=FASTMATH, error_model="numpy")
+def _cell_slot_product(DM, DG, w, DR, g, V, n, rot):
+    """V[k] += ΔM g for beads k = 1 … n with all of ΔM = DM + w DG over the cell's slots
+    (V, beads, Ω; the body's force and torque g[:6], bead forces −DR[1:]): one dense
+    matrix–vector product per matrix (BLAS; the hand loop of :func:`_cell_bead_correction`
+    over all blocks took ≈ 3× as long at N = 50), its bead rows turned by R (``rot``, 9
+    values row by row) unless ``rot`` is empty."""
     last = 3 * (n + 1)
     q = np.empty(last + 3)
     for a in range(3):
@@ -473,6 +492,10 @@ def _cell_slot_product(DM, DR, g, V, n, rot):
         for a in range(3):
             q[3 * j + a] = -DR[j, a]
     u = np.dot(DM, q)
+    if w != 0.0:
+        ug = np.dot(DG, q)
+        for i in range(u.shape[0]):
+            u[i] += w * ug[i]
     for k in range(1, n + 1):
         x, y, z = u[3 * k], u[3 * k + 1], u[3 * k + 2]
         if rot.shape[0] == 9:
@@ -509,7 +532,7 @@ def _turn_rows(rot, a, column, back):
 
 
 @njit(cache=True, fastmath=FASTMATH, error_model="numpy")
-def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
+def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, DG, width, CW):
     """Motion of a cell body (anchor ``ANCHOR_CELL``) and of the hook frame on it.
 
     The body (centre X, orientation Q = exp([φ]×) from the state's last three values) carries
@@ -530,8 +553,9 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
 
     ``width`` ≥ 0: a nonlocal mobility, the frozen ΔM of
     :func:`flagellum.hydro.dynamics.cell_correction` in ``DM`` over the slots (V, beads 1 … n,
-    Ω), adds ΔM g to the body's (V, Ω) and to the beads' velocities ``V`` (blocks between
-    slots at most ``width`` beads apart; V and Ω count as bead 0), with g the generalized
+    Ω) (plus prm[P_SECANT] times the secant model's slope ``DG``), adds ΔM g to the body's
+    (V, Ω) and to the beads' velocities ``V`` (blocks between slots at most ``width`` beads
+    apart; V and Ω count as bead 0), with g the generalized
     forces: the bead forces and the body's (f0, d × f0 + …) of the 6×6 problem (a clamped
     hook's rate about m eliminated: the torque less m times its row). The clamped hook frame
     follows ΔΩ across m (its rate about m is its own balance), and the motor's load line
@@ -639,6 +663,7 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
                     gb[3 + i, c] -= m[i] * r[6, c]
     turned = width >= 0 and prm[off + B.ROTATION + 9] != 0.0
     rot = prm[off + B.ROTATION:off + B.ROTATION + 9]
+    w = prm[P_SECANT] if width >= 0 else 0.0  # ΔM = DM + w DG (the secant model)
     if turned:  # ΔM turned by R (R ΔM Rᵀ g): its forces turned back by Rᵀ, its velocities by R
         _turn_rows(rot, gb, 1, True)
         DR = DR.copy()
@@ -656,18 +681,9 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
         w0 = (wh0[0] - r[3, 0]) * m[0] + (wh0[1] - r[4, 0]) * m[1] + (wh0[2] - r[5, 0]) * m[2]
         b = (wh1[0] - r[3, 1]) * m[0] + (wh1[1] - r[4, 1]) * m[1] + (wh1[2] - r[5, 1]) * m[2]
     if width >= 0:
-        last = 3 * (n + 1)
-        kmax = min(n, width)
-        for ii in range(6):
-            row = ii if ii < 3 else last + ii - 3
-            for c in range(2):
-                acc = 0.0
-                for q in range(3):
-                    acc += DM[row, q] * gb[q, c] + DM[row, last + q] * gb[3 + q, c]
-                dq[ii, c] = acc
-            for k in range(1, kmax + 1):
-                o = 3 * k
-                dq[ii, 0] -= DM[row, o] * DR[k, 0] + DM[row, o + 1] * DR[k, 1] + DM[row, o + 2] * DR[k, 2]
+        _cell_body_rows(DM, 1.0, gb, DR, dq, n, min(n, width))
+        if w != 0.0:  # the secant model's slope: ΔM = DM + w DG
+            _cell_body_rows(DG, w, gb, DR, dq, n, min(n, width))
         if turned:
             _turn_rows(rot, dq, 1, False)
         w0 -= dq[3, 0] * m[0] + dq[4, 0] * m[1] + dq[5, 0] * m[2]
@@ -695,16 +711,20 @@ def cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW):
         for i in range(6):
             g[i] = gb[i, 0] + torque * gb[i, 1]
         if width >= n:  # all of ΔM: one dense product over the slots (BLAS)
-            _cell_slot_product(DM, DR, g, V, n, rot if turned else prm[:0])
+            _cell_slot_product(DM, DG, w, DR, g, V, n, rot if turned else prm[:0])
         elif turned:
             dv = np.zeros((n + 1, 3))
-            _cell_bead_correction(DM, DR, dv, g, n, width)
+            _cell_bead_correction(DM, 1.0, DR, dv, g, n, width)
+            if w != 0.0:
+                _cell_bead_correction(DG, w, DR, dv, g, n, width)
             _turn_rows(rot, dv, 0, False)
             for k in range(1, n + 1):
                 for a in range(3):
                     V[k, a] += dv[k, a]
         else:
-            _cell_bead_correction(DM, DR, V, g, n, width)
+            _cell_bead_correction(DM, 1.0, DR, V, g, n, width)
+            if w != 0.0:
+                _cell_bead_correction(DG, w, DR, V, g, n, width)
     ox, oy, oz = _cross(out[4], out[5], out[6], d[0], d[1], d[2])
     out[10], out[11], out[12] = out[7] + ox, out[8] + oy, out[9] + oz  # bead 0 = X + d
     out[16] = out[1] * m[0] + out[2] * m[1] + out[3] * m[2]
@@ -840,7 +860,7 @@ def _rhs_kernel(GENERAL):
         width = -1 if hydro == HYDRO_LOCAL else (iprm[I_NEAR] if hydro == HYDRO_BANDED else n)
         cm = V[0]  # (unused placeholder of the same type)
         if GENERAL and cell:  # bead 0 and the hook frame move with the cell body (and it applies ΔM)
-            cm = cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, width, CW)
+            cm = cell_motion(y, prm, iprm, T, GT, GTH, DR, ext_hook, el, V, DM, DG, width, CW)
             energy += cm[18]
             V[0, 0], V[0, 1], V[0, 2] = cm[10], cm[11], cm[12]
         elif width >= 0:

@@ -633,20 +633,30 @@ def nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, frozen,
 
 
 @njit(cache=True)
-def _cell_local_change(points, frozen, n, build, f, out):
-    """out = E f over a cell's slots (V, beads 1 … n, Ω), E = M_cell,loc(points) −
-    M_cell,loc(frozen) the change of the local mobility
-    (:func:`flagellum.hydro.dynamics.cell_local_mobility`; block-diagonal over the beads, a
-    6×6 block over (V, Ω)) between the mobility points ``frozen`` and ``points``; ``build``
+def _cell_local_parts(points, n, build):
+    """(bond tangents, the 6×6 body block) of a cell's local mobility at its mobility
+    points (:func:`flagellum.hydro.dynamics.cell_local_mobility`); ``build``
     :func:`flagellum.hydro.dynamics.cell_build_arguments`."""
     h, gpar, gperp = build[1], build[2], build[3]
     radius, aspect, rb, hf = build[5], build[6], build[7], build[8]
+    beads = points[:n + 1]
+    centre, axis = D.cell_frame(points)
+    return D._bond_tangents(beads), D._body_block(beads, h, gpar, gperp, centre, axis, rb, hf,
+                                                  radius, aspect)
+
+
+@njit(cache=True)
+def _cell_local_change(now, then, n, build, f, out):
+    """out = E f over a cell's slots (V, beads 1 … n, Ω), E = M_cell,loc(now) −
+    M_cell,loc(then) the change of the local mobility (block-diagonal over the beads, a
+    6×6 block over (V, Ω)) between two sets of mobility points, given by their
+    :func:`_cell_local_parts` ``now`` and ``then`` (taken once per step, applied twice)."""
+    h, gpar, gperp = build[1], build[2], build[3]
     k = 3 * (n + 1)
     for i in range(k + 3):
         out[i] = 0.0
-    for sign, p in ((1.0, points), (-1.0, frozen)):
-        beads = p[:n + 1]
-        T = D._bond_tangents(beads)
+    for sign, parts in ((1.0, now), (-1.0, then)):
+        T, gi = parts
         for i in range(1, n + 1):
             tx, ty, tz, zpar, zperp, mode = L.bead_friction(T, i, n, h, gpar, gperp, L.CELL, 0.0)
             o = 3 * i
@@ -654,8 +664,6 @@ def _cell_local_change(points, frozen, n, build, f, out):
             out[o] += sign * ax
             out[o + 1] += sign * ay
             out[o + 2] += sign * az
-        centre, axis = D.cell_frame(p)
-        gi = D._body_block(beads, h, gpar, gperp, centre, axis, rb, hf, radius, aspect)
         for a in range(6):
             oa = a if a < 3 else k + a - 3
             acc = 0.0
@@ -785,12 +793,13 @@ def cell_nonlocal_increment(y, dt, kT, g, prm, iprm, ref_u, ref_e, ref_m, ws, fr
                     R[1, a] * (pts[i, 1] - pts[0, 1]) + R[2, a] * (pts[i, 2] - pts[0, 2])
         e = np.empty(k)
         w = np.empty(k)
-        _cell_local_change(q, frozen, n, build, xq, e)  # E ξ
+        now, then = _cell_local_parts(q, n, build), _cell_local_parts(frozen, n, build)
+        _cell_local_change(now, then, n, build, xq, e)  # E ξ
         _lower_solve(chol, e, k)
         _upper_solve_t(chol, e, k)
         for i in range(k):
             w[i] = -0.5 * xq[i] - drift[i] + 0.375 * e[i]
-        _cell_local_change(q, frozen, n, build, w, e)
+        _cell_local_change(now, then, n, build, w, e)
         _lower_solve(chol, e, k)
         _upper_solve_t(chol, e, k)
         for i in range(k):
